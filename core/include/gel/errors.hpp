@@ -1,0 +1,35 @@
+#pragma once
+// Errors the engine reports to its callers. Every message names what is wrong so that a user
+// (or the service, which turns these into gRPC statuses) can act on it.
+#include <stdexcept>
+#include <string>
+
+namespace gel {
+
+// A parameter or input that cannot be simulated. `field` is the dotted name of the offending
+// field (e.g. "bond.k_normal"), so clients can point at it.
+class InvalidArgument : public std::invalid_argument {
+ public:
+  InvalidArgument(std::string field, const std::string& message)
+      : std::invalid_argument(field + ": " + message), field_(std::move(field)) {}
+  const std::string& field() const { return field_; }
+
+ private:
+  std::string field_;
+};
+
+// The integration went numerically wrong (non-finite value, blown-up overlap or speed). The
+// run stops; the message names the step, the particle or bond, and the value.
+class StabilityError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Throws InvalidArgument unless value is finite and > 0.
+void require_positive(const std::string& field, double value);
+// Throws InvalidArgument unless value is finite and >= 0.
+void require_non_negative(const std::string& field, double value);
+// Throws InvalidArgument unless value is finite.
+void require_finite(const std::string& field, double value);
+
+}  // namespace gel

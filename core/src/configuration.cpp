@@ -1,0 +1,210 @@
+#include "gel/configuration.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include <google/protobuf/util/json_util.h>
+
+#include "gel/errors.hpp"
+#include "gel/units.hpp"
+
+namespace gel {
+
+std::string program_version() {
+#ifdef GEL_VERSION
+  return GEL_VERSION;
+#else
+  return "dev";
+#endif
+}
+
+double Configuration::packing_fraction() const {
+  return kPi * kRadius * kRadius * static_cast<double>(size()) / (lx * height());
+}
+
+double Configuration::mean_contact_number() const {
+  return size() == 0 ? 0.0 : 2.0 * static_cast<double>(bonds.size()) / static_cast<double>(size());
+}
+
+std::int32_t Configuration::add_particle(double px, double py, double ptheta) {
+  x.push_back(px);
+  y.push_back(py);
+  theta.push_back(ptheta);
+  if (!wall.empty()) wall.push_back(kNoWall);
+  return static_cast<std::int32_t>(x.size() - 1);
+}
+
+void Configuration::separation(std::int32_t i, std::int32_t j, double& dx, double& dy) const {
+  dx = x[j] - x[i];
+  dy = y[j] - y[i];
+  if (lx > 0) dx -= lx * std::round(dx / lx);
+  if (periodic_y && ly > 0) dy -= ly * std::round(dy / ly);
+}
+
+void Configuration::add_bond_at_contact(std::int32_t i, std::int32_t j) {
+  double dx, dy;
+  separation(i, j, dx, dy);
+  const double r = std::sqrt(dx * dx + dy * dy);
+  const double nx = dx / r, ny = dy / r;
+  BondRecord bond;
+  bond.i = i;
+  bond.j = j;
+  // Rotate the lab-frame directions n and -n into each body frame: R(-theta).
+  const double ci = std::cos(theta[i]), si = std::sin(theta[i]);
+  const double cj = std::cos(theta[j]), sj = std::sin(theta[j]);
+  bond.bix = ci * nx + si * ny;
+  bond.biy = -si * nx + ci * ny;
+  bond.bjx = -(cj * nx + sj * ny);
+  bond.bjy = -(-sj * nx + cj * ny);
+  bonds.push_back(bond);
+}
+
+gel::v1::Configuration to_proto(const Configuration& config) {
+  gel::v1::Configuration message;
+  message.set_format_version(1);
+  message.set_lx(config.lx);
+  message.set_ly(config.ly);
+  message.set_periodic_y(config.periodic_y);
+  message.mutable_x()->Assign(config.x.begin(), config.x.end());
+  message.mutable_y()->Assign(config.y.begin(), config.y.end());
+  message.mutable_theta()->Assign(config.theta.begin(), config.theta.end());
+  for (const BondRecord& bond : config.bonds) {
+    message.add_bond_i(bond.i);
+    message.add_bond_j(bond.j);
+    message.add_bond_bix(bond.bix);
+    message.add_bond_biy(bond.biy);
+    message.add_bond_bjx(bond.bjx);
+    message.add_bond_bjy(bond.bjy);
+  }
+  for (std::int8_t side : config.wall) message.add_wall(side);
+  message.set_wall_bottom(config.wall_bottom);
+  message.set_wall_top(config.wall_top);
+  message.set_seed(config.seed);
+  *message.mutable_generator() = config.generator;
+  message.set_program_version(program_version());
+  return message;
+}
+
+Configuration from_proto(const gel::v1::Configuration& message) {
+  Configuration config;
+  config.lx = message.lx();
+  config.ly = message.ly();
+  require_positive("configuration.lx", config.lx);
+  require_positive("configuration.ly", config.ly);
+  config.periodic_y = message.periodic_y();
+  const int n = message.x_size();
+  if (message.y_size() != n || message.theta_size() != n)
+    throw InvalidArgument("configuration.x", "x, y and theta must have the same length");
+  if (n == 0) throw InvalidArgument("configuration.x", "a configuration needs at least one particle");
+  config.x.assign(message.x().begin(), message.x().end());
+  config.y.assign(message.y().begin(), message.y().end());
+  config.theta.assign(message.theta().begin(), message.theta().end());
+  for (int i = 0; i < n; ++i) {
+    require_finite("configuration.x[" + std::to_string(i) + "]", config.x[i]);
+    require_finite("configuration.y[" + std::to_string(i) + "]", config.y[i]);
+    require_finite("configuration.theta[" + std::to_string(i) + "]", config.theta[i]);
+  }
+  const int nb = message.bond_i_size();
+  if (message.bond_j_size() != nb || message.bond_bix_size() != nb || message.bond_biy_size() != nb ||
+      message.bond_bjx_size() != nb || message.bond_bjy_size() != nb)
+    throw InvalidArgument("configuration.bond_i", "all bond arrays must have the same length");
+  config.bonds.resize(nb);
+  for (int b = 0; b < nb; ++b) {
+    BondRecord& bond = config.bonds[b];
+    bond.i = message.bond_i(b);
+    bond.j = message.bond_j(b);
+    if (bond.i < 0 || bond.i >= n || bond.j < 0 || bond.j >= n || bond.i == bond.j)
+      throw InvalidArgument("configuration.bond_i[" + std::to_string(b) + "]",
+                            "bond joins invalid particles " + std::to_string(bond.i) + ", " + std::to_string(bond.j));
+    bond.bix = message.bond_bix(b);
+    bond.biy = message.bond_biy(b);
+    bond.bjx = message.bond_bjx(b);
+    bond.bjy = message.bond_bjy(b);
+    const double norm_i = bond.bix * bond.bix + bond.biy * bond.biy;
+    const double norm_j = bond.bjx * bond.bjx + bond.bjy * bond.bjy;
+    if (!(std::abs(norm_i - 1) < 1e-6) || !(std::abs(norm_j - 1) < 1e-6))
+      throw InvalidArgument("configuration.bond_bix[" + std::to_string(b) + "]", "contact points must be unit vectors");
+  }
+  if (message.wall_size() != 0) {
+    if (message.wall_size() != n) throw InvalidArgument("configuration.wall", "needs one entry per particle");
+    for (int i = 0; i < n; ++i) {
+      const int side = message.wall(i);
+      if (side < 0 || side > 2) throw InvalidArgument("configuration.wall[" + std::to_string(i) + "]", "must be 0, 1 or 2");
+      config.wall.push_back(static_cast<std::int8_t>(side));
+    }
+  }
+  config.wall_bottom = message.wall_bottom();
+  config.wall_top = message.wall_top();
+  if (!config.periodic_y && !(config.wall_top > config.wall_bottom))
+    throw InvalidArgument("configuration.wall_top", "walls need wall_top > wall_bottom");
+  config.seed = message.seed();
+  config.generator = message.generator();
+  return config;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InvalidArgument("path", "cannot open '" + path + "'");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+void write_file_atomically(const std::string& path, const std::string& contents) {
+  const std::string temporary = path + ".tmp";
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) throw std::runtime_error("cannot write '" + temporary + "'");
+  std::size_t written = 0;
+  while (written < contents.size()) {
+    const ssize_t n = ::write(fd, contents.data() + written, contents.size() - written);
+    if (n <= 0) {
+      ::close(fd);
+      throw std::runtime_error("write to '" + temporary + "' failed");
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  ::fsync(fd);
+  ::close(fd);
+  if (std::rename(temporary.c_str(), path.c_str()) != 0)
+    throw std::runtime_error("cannot rename '" + temporary + "' to '" + path + "'");
+}
+
+namespace {
+bool is_json_path(const std::string& path) {
+  return path.size() >= 5 && path.compare(path.size() - 5, 5, ".json") == 0;
+}
+}  // namespace
+
+Configuration read_configuration(const std::string& path) {
+  const std::string contents = read_file(path);
+  gel::v1::Configuration message;
+  if (is_json_path(path)) {
+    const auto status = google::protobuf::util::JsonStringToMessage(contents, &message);
+    if (!status.ok()) throw InvalidArgument("path", "'" + path + "' is not a configuration: " + status.ToString());
+  } else if (!message.ParseFromString(contents)) {
+    throw InvalidArgument("path", "'" + path + "' is not a binary configuration");
+  }
+  return from_proto(message);
+}
+
+void write_configuration(const Configuration& config, const std::string& path) {
+  const gel::v1::Configuration message = to_proto(config);
+  std::string contents;
+  if (is_json_path(path)) {
+    google::protobuf::util::JsonPrintOptions options;
+    options.preserve_proto_field_names = true;
+    options.always_print_primitive_fields = true;
+    const auto status = google::protobuf::util::MessageToJsonString(message, &contents, options);
+    if (!status.ok()) throw std::runtime_error("cannot encode configuration: " + status.ToString());
+  } else {
+    message.SerializeToString(&contents);
+  }
+  write_file_atomically(path, contents);
+}
+
+}  // namespace gel
