@@ -1,0 +1,28 @@
+#pragma once
+// gelsim sub-commands register themselves here (one file per sub-command), so adding a
+// command never touches main.cpp.
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+namespace gelsim {
+
+struct Command {
+  std::string name;
+  // Adds the sub-command's options to `sub` and returns the function that runs it (its return
+  // value is the process exit code).
+  std::function<std::function<int()>(CLI::App& sub)> setup;
+  std::string description;
+};
+
+std::vector<Command>& registry();
+
+struct Registrar {
+  Registrar(std::string name, std::string description, std::function<std::function<int()>(CLI::App&)> setup) {
+    registry().push_back(Command{std::move(name), std::move(setup), std::move(description)});
+  }
+};
+
+}  // namespace gelsim

@@ -1,0 +1,57 @@
+#pragma once
+// Stepwise uniaxial compression (MODEL.md "Protocols"): generate (or load) a gel, replace the
+// y boundary by walls, and compress through the schedule phi_k, recording every equilibrium.
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "gel/configuration.hpp"
+#include "gel/v1/scene.pb.h"
+
+namespace gel {
+
+// Built-in scene presets: "quick" (a few hundred particles, a few steps, under a minute),
+// "paper-bond1", "paper-bond2". Throws InvalidArgument (field "preset") otherwise.
+gel::v1::Scene scene_preset(std::string_view name);
+std::vector<std::string> scene_preset_names();
+
+// Fills every unset field of a compression scene from its preset and the defaults, and
+// validates it (throws InvalidArgument naming the field). The result is what gets stored.
+gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene);
+
+// Parses a scene from JSON (Protocol Buffers' JSON mapping); throws InvalidArgument.
+gel::v1::Scene scene_from_json(const std::string& json);
+std::string scene_to_json(const gel::v1::Scene& scene);
+
+// The schedule: phi_1 = w0 phi_0, phi_k = w^(k-1) phi_1, w = (phi_max/phi_1)^(1/(k'-1)).
+std::vector<double> compression_targets(double phi0, double w0, double phi_max, int steps);
+
+struct RunOptions {
+  std::string out_dir;  // checkpoint, curve.csv/json, snapshots; empty = keep in memory only
+  std::function<void(const gel::v1::Progress&)> on_progress;  // may be empty: costs nothing
+  std::function<void(const gel::v1::CurveRow&)> on_row;       // called at every equilibrium
+  const std::atomic<bool>* stop = nullptr;  // set to stop: checkpoint and return
+  double progress_interval_seconds = 0.5;
+  bool write_snapshots = true;
+};
+
+struct CompressionResult {
+  gel::v1::Curve curve;
+  bool stopped = false;   // stopped on request before the end (resumable from out_dir)
+  bool finished = false;  // all targets done
+};
+
+// Runs a resolved or unresolved compression scene from its generator (or the configuration
+// `initial` if given). With out_dir set, a checkpoint there is written at every equilibrium
+// and every checkpoint_seconds of wall time.
+CompressionResult run_compression(const gel::v1::Scene& scene, const RunOptions& options,
+                                  const Configuration* initial = nullptr);
+
+// Continues from out_dir's checkpoint; the result is identical to an uninterrupted run.
+CompressionResult resume_compression(const RunOptions& options);
+bool has_checkpoint(const std::string& out_dir);
+
+}  // namespace gel
