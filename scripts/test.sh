@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Sets up, builds and runs every test: first the Release build, then the same suite once more
+# under AddressSanitizer + UndefinedBehaviorSanitizer.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+JOBS="$(nproc)"
+
+GEL_BUILD_DIR=build scripts/setup.sh
+(cd build && ctest --output-on-failure -j "$JOBS" --timeout 900)
+
+if [ "${GEL_SKIP_SANITIZERS:-0}" != "1" ]; then
+  GEL_BUILD_DIR=build-asan scripts/setup.sh -DCMAKE_BUILD_TYPE=RelWithDebInfo -DGEL_SANITIZE=ON
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  (cd build-asan && GEL_SANITIZED=1 ctest --output-on-failure -j "$JOBS" --timeout 1800)
+fi
