@@ -1,0 +1,29 @@
+#pragma once
+// Compression curves on disk: DIR/curve.json and DIR/curve.csv (README "Outputs").
+//
+// curve.json: {"program_version", "particles", "parameters": <resolved scene, proto JSON>,
+//              "rows": [{"k", "phi", "target_phi", "P", "P_top", "P_bot", "contact_number",
+//                        "stored_energy", "dissipated_energy",
+//                        "ruptures": {"normal", "sliding", "rolling"}, "bonds_created",
+//                        "equilibrated", "steps", "sim_time", "wall_seconds", "drag_energy",
+//                        "wall_work", "kinetic_energy", "phi_profile": [...], "snapshot"}]}
+// curve.csv: one row per equilibrium, the header names every column with its unit.
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "gel/v1/scene.pb.h"
+
+namespace gel {
+
+nlohmann::json curve_row_to_json(const gel::v1::CurveRow& row);
+gel::v1::CurveRow curve_row_from_json(const nlohmann::json& row);
+nlohmann::json curve_to_json(const gel::v1::Curve& curve);
+gel::v1::Curve curve_from_json(const nlohmann::json& json);  // throws InvalidArgument
+std::string curve_to_csv(const gel::v1::Curve& curve);
+
+// DIR/curve.json, atomically.
+void write_curve(const gel::v1::Curve& curve, const std::string& dir);
+gel::v1::Curve read_curve(const std::string& dir);  // reads DIR/curve.json
+
+}  // namespace gel
