@@ -140,7 +140,9 @@ Configuration from_proto(const gel::v1::Configuration& message) {
   }
   config.wall_bottom = message.wall_bottom();
   config.wall_top = message.wall_top();
-  if (!config.periodic_y && !(config.wall_top > config.wall_bottom))
+  if (config.has_walls() && config.periodic_y)
+    throw InvalidArgument("configuration.periodic_y", "a configuration with walls cannot be periodic in y");
+  if (config.has_walls() && !(config.wall_top > config.wall_bottom))
     throw InvalidArgument("configuration.wall_top", "walls need wall_top > wall_bottom");
   config.seed = message.seed();
   config.generator = message.generator();

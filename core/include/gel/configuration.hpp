@@ -29,7 +29,7 @@ enum WallSide : std::int8_t { kNoWall = 0, kBottomWall = 1, kTopWall = 2 };
 struct Configuration {
   double lx = 0;
   double ly = 0;
-  bool periodic_y = true;  // false once walls replaced the y boundary
+  bool periodic_y = true;  // false once walls replaced the y boundary (or for an open box)
   std::vector<double> x, y, theta;
   std::vector<BondRecord> bonds;
   std::vector<std::int8_t> wall;  // empty (no walls) or one WallSide per particle
@@ -39,9 +39,9 @@ struct Configuration {
   gel::v1::Generator generator;  // parameters that made it, if generated
 
   std::size_t size() const { return x.size(); }
-  bool has_walls() const { return !periodic_y; }
-  // Height available to the particles: L_y when periodic, the wall gap otherwise.
-  double height() const { return periodic_y ? ly : wall_top - wall_bottom; }
+  bool has_walls() const { return !wall.empty(); }
+  // Height available to the particles: the wall gap between walls, L_y otherwise.
+  double height() const { return has_walls() ? wall_top - wall_bottom : ly; }
   // phi = pi a^2 N / (L_x height).
   double packing_fraction() const;
   // Mean number of bonds per particle, 2 N_b / N.

@@ -101,7 +101,7 @@ class System {
   const std::vector<double>& fy() const { return fy_; }
   const std::vector<double>& torque() const { return torque_; }
   double theta(std::size_t i) const;
-  std::int8_t wall_side(std::size_t i) const { return wall_.empty() ? kNoWall : wall_[i]; }
+  std::int8_t wall_side(std::size_t i) const { return wall_.empty() ? std::int8_t{kNoWall} : wall_[i]; }
 
   // Energies.
   double stored_energy() const;   // elastic energy of all bonds

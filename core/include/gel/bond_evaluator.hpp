@@ -1,0 +1,87 @@
+#pragma once
+// The evaluator: the physics of one bond (MODEL.md "Bonds"), from that bond's geometry only.
+// It knows nothing of loops or memory layout; System::bond_forces owns those. Each term is
+// compiled in only when its effect is in the mask (if constexpr), so an effect that is off
+// costs nothing.
+#include <cmath>
+
+#include "gel/bond_law.hpp"
+#include "gel/effects.hpp"
+#include "gel/units.hpp"
+
+namespace gel {
+
+// Geometry of a bond: n = (r_j - r_i)/|r_j - r_i|, gap delta = |r_j - r_i| - 2a, and the
+// lab-frame contact directions xi_ij (on i) and xi_ji (on j).
+struct BondGeometry {
+  double nx, ny;
+  double delta;
+  double xi_ix, xi_iy;
+  double xi_jx, xi_jy;
+};
+
+// Forces and moments of one bond. Force on i is (fx, fy); on j it is opposite. The torque
+// on i is rolling_moment + sliding_torque, on j it is -rolling_moment + sliding_torque.
+struct BondForces {
+  double normal_force = 0;   // F_N . n; positive pulls i towards j
+  double sliding_x = 0;      // F_T = k_S d
+  double sliding_y = 0;
+  double rolling_moment = 0; // M_R on i
+};
+
+// Bending angle phi = -asin((xi_ij x xi_ji)_z). A bond stays near phi = 0 (it resets at
+// phi_c = 0.05), so a short odd series is exact to 1e-16 there and std::asin is the fallback.
+inline double bending_angle(double cross_z) {
+  const double x = cross_z;
+  if (std::abs(x) < 0.125) {
+    const double x2 = x * x;
+    // asin x = x + x^3/6 + 3x^5/40 + 5x^7/112 + 35x^9/1152 + 63x^11/2816 + 231x^13/13312 + ...
+    const double series =
+        x * (1.0 + x2 * (1.0 / 6 + x2 * (3.0 / 40 + x2 * (5.0 / 112 + x2 * (35.0 / 1152 +
+        x2 * (63.0 / 2816 + x2 * (231.0 / 13312 + x2 * (143.0 / 10240))))))));
+    return -series;
+  }
+  return -std::asin(x);
+}
+
+template <unsigned kEffects>
+struct BondEvaluator {
+  static constexpr bool needs_normal() { return kEffects & kNormalSpring; }
+  static constexpr bool needs_overlap() { return kEffects & kOverlapRepulsion; }
+  static constexpr bool needs_sliding() { return kEffects & kSliding; }
+  static constexpr bool needs_rolling() { return kEffects & kRolling; }
+  // The contact points are only needed by the tangential springs.
+  static constexpr bool needs_contact_points() { return needs_sliding() || needs_rolling(); }
+
+  static BondForces evaluate(const BondGeometry& g, const BondLaw& law) {
+    BondForces out;
+    if constexpr (needs_normal()) out.normal_force = law.k_normal * g.delta;
+    if constexpr (needs_overlap()) {
+      // theta(-delta) delta^3 without a branch: only the overlapping part is cubed.
+      const double overlap = g.delta < 0 ? g.delta : 0.0;
+      out.normal_force += law.overlap_coefficient * overlap * overlap * overlap;
+    }
+    if constexpr (needs_sliding()) {
+      // d = a { u - (u.n) n }, u = xi_ji - xi_ij
+      const double ux = g.xi_jx - g.xi_ix, uy = g.xi_jy - g.xi_iy;
+      const double u_n = ux * g.nx + uy * g.ny;
+      out.sliding_x = law.k_sliding * kRadius * (ux - u_n * g.nx);
+      out.sliding_y = law.k_sliding * kRadius * (uy - u_n * g.ny);
+    }
+    if constexpr (needs_rolling()) {
+      const double cross = g.xi_ix * g.xi_jy - g.xi_iy * g.xi_jx;
+      out.rolling_moment = law.k_rolling * bending_angle(cross);
+    }
+    return out;
+  }
+};
+
+// Elastic energy stored in one bond, every term of the law (used for bookkeeping, not in the
+// step loop): k_N delta^2/2 + C theta(-delta) delta^4/4 + k_S |d|^2/2 + k_R a^2 phi^2/2.
+struct BondEnergy {
+  double normal = 0, sliding = 0, rolling = 0;
+  double total() const { return normal + sliding + rolling; }
+};
+BondEnergy bond_energy(const BondGeometry& g, const BondLaw& law, unsigned effects);
+
+}  // namespace gel
