@@ -1,0 +1,104 @@
+// gelsim bench: particle-steps per second of the step loop on the benchmark network, with all
+// effects or with a subset. Speed is measured here, never in unit tests.
+#include <chrono>
+#include <iostream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "command.hpp"
+#include "gel/bench_network.hpp"
+#include "gel/errors.hpp"
+#include "gel/system.hpp"
+
+namespace {
+
+struct BenchArgs {
+  int particles = 5760;
+  std::string bond = "bond1";
+  std::vector<std::string> effects;
+  bool subsets = false;
+  double min_seconds = 2.0;
+  double v_wall = 0.01;
+  std::uint64_t seed = 1;
+  bool json = false;
+};
+
+nlohmann::json bench_once(const BenchArgs& args, unsigned effects) {
+  gel::v1::Scene scene;
+  scene.mutable_bond()->set_preset(args.bond);
+  gel::SimParams params = gel::resolve_sim_params(scene);
+  params.effects = effects;
+  gel::System system(gel::random_network(args.particles, args.seed), params);
+  if (effects & gel::kWalls) {
+    system.install_walls();
+    system.set_wall_velocities(args.v_wall, -args.v_wall);
+  }
+  system.run(200);  // warm caches and let the first contacts form
+  using clock = std::chrono::steady_clock;
+  std::int64_t steps = 0;
+  const auto start = clock::now();
+  double seconds = 0;
+  std::int64_t chunk = 100;
+  while (seconds < args.min_seconds) {
+    system.run(chunk);
+    steps += chunk;
+    seconds = std::chrono::duration<double>(clock::now() - start).count();
+    if (seconds < 0.1 * args.min_seconds) chunk *= 2;
+  }
+  const double rate = static_cast<double>(steps) * static_cast<double>(system.size()) / seconds;
+  const auto& events = system.events();
+  return {{"particles", system.size()},
+          {"bonds", system.bonds().size()},
+          {"effects", gel::effect_names(effects)},
+          {"steps", steps},
+          {"seconds", seconds},
+          {"particle_steps_per_second", rate},
+          {"dt", system.params().dt},
+          {"neighbour_rebuilds", system.neighbour_rebuilds()},
+          {"events", {{"normal", events.normal}, {"sliding", events.sliding}, {"rolling", events.rolling}, {"created", events.created}}}};
+}
+
+int run_bench(const BenchArgs& args) {
+  std::vector<std::pair<std::string, unsigned>> runs;
+  if (args.subsets) {
+    using namespace gel;
+    runs = {{"all", kAllEffects},
+            {"no thresholds", kAllEffects & ~kThresholds},
+            {"no creation", kAllEffects & ~kBondCreation},
+            {"no drag", kAllEffects & ~kDrag},
+            {"no rolling, no sliding", kAllEffects & ~(kRolling | kSliding)},
+            {"normal springs only", kNormalSpring | kPeriodicX | kWalls}};
+  } else {
+    runs = {{"selected", gel::parse_effects(args.effects)}};
+  }
+  nlohmann::json results = nlohmann::json::array();
+  for (const auto& [label, effects] : runs) {
+    nlohmann::json result = bench_once(args, effects);
+    result["label"] = label;
+    if (!args.json)
+      std::cerr << label << ": " << result["particle_steps_per_second"].get<double>() / 1e6 << " M particle-steps/s ("
+                << result["steps"] << " steps, " << result["seconds"].get<double>() << " s)\n";
+    results.push_back(result);
+  }
+  if (args.json)
+    std::cout << (results.size() == 1 ? results[0] : nlohmann::json{{"runs", results}}).dump() << "\n";
+  else
+    std::cout << results.dump(2) << "\n";
+  return 0;
+}
+
+gelsim::Registrar bench_command("bench", "speed of the step loop (particle-steps per second)", [](CLI::App& sub) {
+  auto args = std::make_shared<BenchArgs>();
+  sub.add_option("--particles", args->particles, "particles in the network")->check(CLI::Range(2, 100000000));
+  sub.add_option("--bond", args->bond, "bond preset (bond1, bond2)");
+  sub.add_option("--effects", args->effects, "effects to switch on (default: all)")->delimiter(',');
+  sub.add_flag("--subsets", args->subsets, "run all effects and a set of subsets");
+  sub.add_option("--min-seconds", args->min_seconds, "time to run each measurement")->check(CLI::PositiveNumber);
+  sub.add_option("--v-wall", args->v_wall, "wall speed during the benchmark [a/t0]")->check(CLI::NonNegativeNumber);
+  sub.add_option("--seed", args->seed, "seed of the network");
+  sub.add_flag("--json", args->json, "print one JSON object");
+  return [args] { return run_bench(*args); };
+});
+
+}  // namespace
