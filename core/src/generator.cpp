@@ -40,48 +40,57 @@ double wrap(double v, double length) {
 // image next to the point. With at least 3 cells per direction the 9 cells are distinct, so
 // every image within one cell width is reported once and no minimum-image assumption is
 // needed (clusters may span the box). Particles can be moved one at a time.
+//
+// Each cell also knows its owner: the one cluster all its particles belong to, kEmpty or
+// kMixed. A moving cluster then skips, without looking at any particle, the cells that hold
+// only its own particles, which is most of them for a large cluster.
 class PeriodicGrid {
  public:
-  PeriodicGrid(double lx, double ly, double min_cell) : lx_(lx), ly_(ly) {
+  static constexpr std::int32_t kEmpty = -1;
+  static constexpr std::int32_t kMixed = -2;
+
+  PeriodicGrid(double lx, double ly, double min_cell, const std::vector<std::int32_t>& cluster_of)
+      : lx_(lx), ly_(ly), cluster_of_(cluster_of) {
     nx_ = static_cast<int>(std::floor(lx / min_cell));
     ny_ = static_cast<int>(std::floor(ly / min_cell));
     if (nx_ < 3 || ny_ < 3) throw std::logic_error("periodic grid needs 3 cells per direction");
     wx_ = lx / nx_;
     wy_ = ly / ny_;
     cells_.resize(static_cast<std::size_t>(nx_) * ny_);
+    owner_.assign(cells_.size(), kEmpty);
   }
 
-  int cell_of_point(double px, double py) const { return index(cx(px), cy(py)); }
-
+  // Adds particle p (its cluster already set in cluster_of).
   void insert(std::int32_t p, double px, double py) {
     if (static_cast<std::size_t>(p) >= cell_.size()) {
       cell_.resize(p + 1, -1);
       slot_.resize(p + 1, -1);
     }
-    const int c = cell_of_point(px, py);
-    cell_[p] = c;
-    slot_[p] = static_cast<std::int32_t>(cells_[c].size());
-    cells_[c].push_back(p);
+    add(p, index(cx(px), cy(py)));
   }
 
   // After particle p moved to (px, py).
   void update(std::int32_t p, double px, double py) {
-    const int c = cell_of_point(px, py);
+    const int c = index(cx(px), cy(py));
     if (c == cell_[p]) return;
-    std::vector<std::int32_t>& old = cells_[cell_[p]];
-    const std::int32_t last = old.back();
-    old[slot_[p]] = last;
+    const int old = cell_[p];
+    std::vector<std::int32_t>& members = cells_[old];
+    const std::int32_t last = members.back();
+    members[slot_[p]] = last;
     slot_[last] = slot_[p];
-    old.pop_back();
-    cell_[p] = c;
-    slot_[p] = static_cast<std::int32_t>(cells_[c].size());
-    cells_[c].push_back(p);
+    members.pop_back();
+    refresh(old);
+    add(p, c);
   }
 
-  // f(q, sx, sy) for every particle in the 3 x 3 cells around (px, py); stops when f returns
-  // true and then returns true.
+  // After the cluster of particle p changed.
+  void refresh_owner(std::int32_t p) { refresh(cell_[p]); }
+
+  // f(q, sx, sy) for every particle in the 3 x 3 cells around (px, py), except in cells that
+  // hold only particles of cluster `self` (pass kMixed to see all); stops when f returns true
+  // and then returns true.
   template <class F>
-  bool any_near(double px, double py, F&& f) const {
+  bool any_near(double px, double py, std::int32_t self, F&& f) const {
     const int x0 = cx(px), y0 = cy(py);
     for (int dy = -1; dy <= 1; ++dy) {
       int gy = y0 + dy;
@@ -93,7 +102,9 @@ class PeriodicGrid {
         double sx = 0;
         if (gx < 0) gx += nx_, sx = -lx_;
         else if (gx >= nx_) gx -= nx_, sx = lx_;
-        for (const std::int32_t q : cells_[index(gx, gy)])
+        const int c = index(gx, gy);
+        if (owner_[c] == kEmpty || owner_[c] == self) continue;
+        for (const std::int32_t q : cells_[c])
           if (f(q, sx, sy)) return true;
       }
     }
@@ -105,9 +116,32 @@ class PeriodicGrid {
   int cy(double py) const { return std::clamp(static_cast<int>(py / wy_), 0, ny_ - 1); }
   int index(int gx, int gy) const { return gy * nx_ + gx; }
 
+  void add(std::int32_t p, int c) {
+    cell_[p] = c;
+    slot_[p] = static_cast<std::int32_t>(cells_[c].size());
+    cells_[c].push_back(p);
+    const std::int32_t cluster = cluster_of_[p];
+    if (owner_[c] == kEmpty) owner_[c] = cluster;
+    else if (owner_[c] != cluster) owner_[c] = kMixed;
+  }
+
+  void refresh(int c) {
+    std::int32_t owner = kEmpty;
+    for (const std::int32_t q : cells_[c]) {
+      if (owner == kEmpty) owner = cluster_of_[q];
+      else if (owner != cluster_of_[q]) {
+        owner = kMixed;
+        break;
+      }
+    }
+    owner_[c] = owner;
+  }
+
   double lx_, ly_, wx_ = 1, wy_ = 1;
   int nx_ = 0, ny_ = 0;
+  const std::vector<std::int32_t>& cluster_of_;
   std::vector<std::vector<std::int32_t>> cells_;
+  std::vector<std::int32_t> owner_;  // per cell
   std::vector<int> cell_;
   std::vector<std::int32_t> slot_;
 };
@@ -122,7 +156,7 @@ class Network {
         tolerance_(g.contact_tolerance()),
         max_attempts_(g.max_attempts()),
         n_clusters_(g.n_clusters()),
-        grid_(g.lx(), g.ly(), kContact + g.walk_step() + 2.0 * g.contact_tolerance()) {
+        grid_(g.lx(), g.ly(), kContact + g.walk_step() + 2.0 * g.contact_tolerance(), cluster_of_) {
     const std::size_t n = static_cast<std::size_t>(g.n_floc()) * g.n_clusters();
     x_.reserve(n);
     y_.reserve(n);
@@ -160,7 +194,7 @@ class Network {
       bool clash = false;
       for (std::size_t p = 0; p < n && !clash; ++p) {
         const double px = wrap(centre_x + rx[p], lx_), py = wrap(centre_y + ry[p], ly_);
-        clash = grid_.any_near(px, py, [&](std::int32_t q, double sx, double sy) {
+        clash = grid_.any_near(px, py, PeriodicGrid::kMixed, [&](std::int32_t q, double sx, double sy) {
           const double dx = x_[q] + sx - px, dy = y_[q] + sy - py;
           return dx * dx + dy * dy < touch2;
         });
@@ -222,7 +256,7 @@ class Network {
         touched.clear();
         const double touch2 = (kContact + tolerance_) * (kContact + tolerance_);
         for (const std::int32_t p : members_[id])
-          grid_.any_near(x_[p], y_[p], [&](std::int32_t q, double sx, double sy) {
+          grid_.any_near(x_[p], y_[p], id, [&](std::int32_t q, double sx, double sy) {
             const std::int32_t other = cluster_of_[q];
             if (other != id) {
               const double ex = x_[q] + sx - x_[p], ey = y_[q] + sy - y_[p];
@@ -252,7 +286,7 @@ class Network {
     const double overlap2 = (kContact - tolerance_) * (kContact - tolerance_);
     std::vector<std::pair<std::int32_t, std::int32_t>> pairs;
     for (std::int32_t p = 0; p < static_cast<std::int32_t>(x_.size()); ++p)
-      grid_.any_near(x_[p], y_[p], [&](std::int32_t q, double sx, double sy) {
+      grid_.any_near(x_[p], y_[p], PeriodicGrid::kMixed, [&](std::int32_t q, double sx, double sy) {
         if (q <= p) return false;
         const double ex = x_[q] + sx - x_[p], ey = y_[q] + sy - y_[p];
         const double d2 = ex * ex + ey * ey;
@@ -276,7 +310,7 @@ class Network {
     double t_min = 1.0;
     for (const std::int32_t p : members_[id]) {
       const double px = x_[p], py = y_[p];
-      grid_.any_near(px, py, [&](std::int32_t q, double sx, double sy) {
+      grid_.any_near(px, py, id, [&](std::int32_t q, double sx, double sy) {
         if (cluster_of_[q] == id) return false;
         const double rx = px - x_[q] - sx, ry = py - y_[q] - sy;
         const double b = rx * dx + ry * dy;
@@ -308,6 +342,7 @@ class Network {
       cluster_of_[p] = a;
       members_[a].push_back(p);
     }
+    for (const std::int32_t p : members_[b]) grid_.refresh_owner(p);
     members_[b].clear();
     members_[b].shrink_to_fit();
     const std::int32_t position = active_position_[b];
@@ -321,9 +356,9 @@ class Network {
 
   double lx_, ly_, step_, tolerance_;
   int max_attempts_, n_clusters_;
+  std::vector<std::int32_t> cluster_of_;  // declared before grid_, which keeps a reference
   PeriodicGrid grid_;
   std::vector<double> x_, y_, c_, s_;  // positions in the box, orientations as unit vectors
-  std::vector<std::int32_t> cluster_of_;
   std::vector<std::vector<std::int32_t>> members_;
   std::vector<std::int32_t> active_, active_position_;
   std::int32_t hit_cluster_ = -1;

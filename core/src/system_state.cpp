@@ -49,7 +49,9 @@ class Reader {
     const auto count = get<std::uint64_t>();
     if (count > (bytes_.size() - offset_) / sizeof(T)) throw std::runtime_error("checkpoint state is truncated");
     values.resize(count);
-    std::memcpy(values.data(), bytes_.data() + offset_, count * sizeof(T));
+    // memcpy from/to a null pointer is undefined even for zero bytes, and an
+    // empty vector's data() may be null.
+    if (count != 0) std::memcpy(values.data(), bytes_.data() + offset_, count * sizeof(T));
     offset_ += count * sizeof(T);
   }
   bool done() const { return offset_ == bytes_.size(); }
