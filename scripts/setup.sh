@@ -12,6 +12,7 @@ PACKAGES=(
   libfftw3-dev libcairo2-dev gnuplot-nox
   python3 python3-grpcio python3-protobuf
   systemd
+  slurmctld slurmd slurm-client munge
 )
 
 missing=()
