@@ -1,0 +1,204 @@
+// The compression engine behind geld: submissions are resolved and validated by gelcore, and
+// the "threads" executor runs members in-process with gel::run_compression.
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/message.h>
+#include <nlohmann/json.hpp>
+
+#include "executor.hpp"
+#include "gel/compression.hpp"
+#include "gel/configuration.hpp"
+#include "gel/curve_io.hpp"
+#include "gel/errors.hpp"
+#include "job_manager.hpp"
+
+namespace geld {
+namespace {
+
+using google::protobuf::FieldDescriptor;
+
+// The resolved scene flattened to (dotted name, text, number or NaN) for QueryCurves.
+void flatten(const google::protobuf::Message& message, const std::string& prefix,
+             std::vector<std::tuple<std::string, std::string, double>>& out) {
+  const auto* reflection = message.GetReflection();
+  std::vector<const FieldDescriptor*> fields;
+  reflection->ListFields(message, &fields);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const auto* field : fields) {
+    const std::string name = prefix + field->name();
+    if (field->is_repeated()) {
+      if (field->cpp_type() == FieldDescriptor::CPPTYPE_STRING) {
+        std::string joined;
+        for (int i = 0; i < reflection->FieldSize(message, field); ++i) {
+          if (i) joined += ",";
+          joined += reflection->GetRepeatedString(message, field, i);
+        }
+        out.emplace_back(name, joined, nan);
+      }
+      continue;
+    }
+    switch (field->cpp_type()) {
+      case FieldDescriptor::CPPTYPE_MESSAGE:
+        flatten(reflection->GetMessage(message, field), name + ".", out);
+        break;
+      case FieldDescriptor::CPPTYPE_STRING:
+        out.emplace_back(name, reflection->GetString(message, field), nan);
+        break;
+      case FieldDescriptor::CPPTYPE_DOUBLE: {
+        const double v = reflection->GetDouble(message, field);
+        out.emplace_back(name, nlohmann::json(v).dump(), v);
+        break;
+      }
+      case FieldDescriptor::CPPTYPE_FLOAT: {
+        const double v = reflection->GetFloat(message, field);
+        out.emplace_back(name, nlohmann::json(v).dump(), v);
+        break;
+      }
+      case FieldDescriptor::CPPTYPE_INT32: {
+        const auto v = reflection->GetInt32(message, field);
+        out.emplace_back(name, std::to_string(v), static_cast<double>(v));
+        break;
+      }
+      case FieldDescriptor::CPPTYPE_INT64: {
+        const auto v = reflection->GetInt64(message, field);
+        out.emplace_back(name, std::to_string(v), static_cast<double>(v));
+        break;
+      }
+      case FieldDescriptor::CPPTYPE_UINT32: {
+        const auto v = reflection->GetUInt32(message, field);
+        out.emplace_back(name, std::to_string(v), static_cast<double>(v));
+        break;
+      }
+      case FieldDescriptor::CPPTYPE_UINT64: {
+        const auto v = reflection->GetUInt64(message, field);
+        out.emplace_back(name, std::to_string(v), static_cast<double>(v));
+        break;
+      }
+      case FieldDescriptor::CPPTYPE_BOOL: {
+        const bool v = reflection->GetBool(message, field);
+        out.emplace_back(name, v ? "true" : "false", v ? 1.0 : 0.0);
+        break;
+      }
+      case FieldDescriptor::CPPTYPE_ENUM:
+        out.emplace_back(name, reflection->GetEnum(message, field)->name(), nan);
+        break;
+    }
+  }
+}
+
+ApiError invalid(const gel::InvalidArgument& e, const std::string& prefix) {
+  return ApiError(grpc::StatusCode::INVALID_ARGUMENT, prefix + e.what());
+}
+
+ApiError too_large(std::int64_t particles, const Limits& limits) {
+  return ApiError(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                  "scene.generator: " + std::to_string(particles) + " particles per member, the limit is " +
+                      std::to_string(limits.max_particles));
+}
+
+class CompressionEngine final : public Engine {
+ public:
+  Prepared prepare(const gel::v1::SubmitJobRequest& request, const Limits& limits) override {
+    gel::v1::Scene scene;
+    const bool has_message = request.has_scene();
+    const bool has_json = !request.scene_json().empty();
+    if (has_message && has_json) {
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "scene: give either scene or scene_json, not both");
+    }
+    if (!has_message && !has_json) {
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "scene: missing (set scene or scene_json)");
+    }
+    if (has_json) {
+      try {
+        scene = gel::scene_from_json(request.scene_json());
+      } catch (const gel::InvalidArgument& e) {
+        throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "scene_json: " + std::string(e.what()));
+      } catch (const std::exception& e) {
+        throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "scene_json: " + std::string(e.what()));
+      }
+    } else {
+      scene = request.scene();
+    }
+    if (scene.has_bending()) {
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
+                     "scene.bending: only compression scenes run as jobs (set scene.compression or a preset)");
+    }
+    // A first look at the size before resolving: an absurd particle count is a resource
+    // problem, whatever else is wrong with the scene.
+    {
+      std::int64_t n_floc = scene.generator().n_floc(), n_clusters = scene.generator().n_clusters();
+      if (!scene.preset().empty() && (n_floc == 0 || n_clusters == 0)) {
+        try {
+          const auto preset = gel::scene_preset(scene.preset());
+          if (n_floc == 0) n_floc = preset.generator().n_floc();
+          if (n_clusters == 0) n_clusters = preset.generator().n_clusters();
+        } catch (const std::exception&) {
+        }
+      }
+      if (n_floc > 0 && n_clusters > 0 && n_floc * n_clusters > limits.max_particles) {
+        throw too_large(n_floc * n_clusters, limits);
+      }
+    }
+    Prepared prepared;
+    try {
+      prepared.scene = gel::resolve_compression_scene(scene);
+    } catch (const gel::InvalidArgument& e) {
+      throw invalid(e, "scene.");
+    }
+    const auto& g = prepared.scene.generator();
+    prepared.particles = static_cast<std::int64_t>(g.n_floc()) * static_cast<std::int64_t>(g.n_clusters());
+    if (prepared.particles > limits.max_particles) throw too_large(prepared.particles, limits);
+    prepared.bond_preset = prepared.scene.bond().preset();
+    flatten(prepared.scene, "", prepared.parameters);
+    prepared.scene_json = gel::scene_to_json(prepared.scene);
+    return prepared;
+  }
+
+  std::string scene_json(const gel::v1::Scene& scene) override { return gel::scene_to_json(scene); }
+  std::string curve_json(const gel::v1::Curve& curve) override { return gel::curve_to_json(curve).dump(); }
+  std::string program_version() override { return gel::program_version(); }
+};
+
+class ThreadExecutor final : public Executor {
+ public:
+  std::string name() const override { return "threads"; }
+
+  RunResult run(const RunContext& ctx) override {
+    gel::RunOptions options;
+    options.out_dir = ctx.out_dir;
+    options.on_progress = ctx.on_progress;
+    options.on_row = ctx.on_row;
+    options.stop = ctx.stop;
+    gel::CompressionResult result;
+    bool resumed = false;
+    if (gel::has_checkpoint(ctx.out_dir)) {
+      try {
+        if (ctx.log) ctx.log("info", "member " + std::to_string(ctx.member) + " resumes from its checkpoint");
+        result = gel::resume_compression(options);
+        resumed = true;
+      } catch (const gel::StabilityError&) {
+        throw;
+      } catch (const std::exception& e) {
+        // A checkpoint that cannot be read: the run is deterministic, so start it again.
+        if (ctx.log) ctx.log("warn", std::string("checkpoint unusable (") + e.what() + "); starting the member again");
+      }
+    }
+    if (!resumed) result = gel::run_compression(ctx.scene, options);
+    RunResult out;
+    out.finished = result.finished;
+    out.stopped = result.stopped;
+    out.curve = std::move(result.curve);
+    return out;
+  }
+};
+
+}  // namespace
+
+std::shared_ptr<Engine> make_compression_engine() { return std::make_shared<CompressionEngine>(); }
+
+std::unique_ptr<Executor> make_thread_executor() { return std::make_unique<ThreadExecutor>(); }
+
+}  // namespace geld

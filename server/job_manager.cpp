@@ -1,0 +1,638 @@
+#include "job_manager.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+namespace geld {
+
+namespace fs = std::filesystem;
+using gel::v1::JobState;
+
+std::int64_t now_ms() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+namespace {
+
+bool is_terminal(JobState state) {
+  return state == gel::v1::JOB_STATE_SUCCEEDED || state == gel::v1::JOB_STATE_FAILED ||
+         state == gel::v1::JOB_STATE_CANCELLED;
+}
+
+ApiError unavailable() {
+  return ApiError(grpc::StatusCode::UNAVAILABLE, "geld is shutting down; retry when it is back");
+}
+
+// RAII count of active watchers.
+struct WatcherSlot {
+  std::atomic<int>& count;
+  explicit WatcherSlot(std::atomic<int>& c) : count(c) { ++count; }
+  ~WatcherSlot() { --count; }
+};
+
+}  // namespace
+
+JobManager::JobManager(ManagerOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor)
+    : options_(std::move(options)), engine_(std::move(engine)), executor_(std::move(executor)) {
+  fs::create_directories(fs::path(options_.data_dir) / "jobs");
+  store_ = std::make_unique<Store>((fs::path(options_.data_dir) / "geld.sqlite").string());
+  if (options_.workers <= 0) options_.workers = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+JobManager::~JobManager() { shutdown(); }
+
+std::string JobManager::require_id(const std::string& id) {
+  if (id.empty()) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "job_id: must not be empty");
+  return id;
+}
+
+void JobManager::start() {
+  std::lock_guard lock(mutex_);
+  if (started_) return;
+  started_ = true;
+  // Jobs that were running resume first (from their checkpoints), then the queue in order.
+  for (auto state : {gel::v1::JOB_STATE_RUNNING, gel::v1::JOB_STATE_QUEUED}) {
+    for (const auto& id : store_->job_ids_in_state(state)) {
+      auto job = store_->get_job(id);
+      if (!job) continue;
+      auto live = std::make_shared<Live>();
+      live->job = *job;
+      live_[id] = live;
+      queue_.push_back(id);
+      if (state == gel::v1::JOB_STATE_RUNNING) {
+        spdlog::info("job {}: was running; resumes from its checkpoint (member {})", id, job->member());
+      } else {
+        spdlog::info("job {}: still queued", id);
+      }
+    }
+  }
+  for (int i = 0; i < options_.workers; ++i) workers_.emplace_back([this] { worker_loop(); });
+  spdlog::info("job manager: {} workers, {} jobs recovered, data dir {}", options_.workers, queue_.size(),
+               options_.data_dir);
+}
+
+void JobManager::shutdown() {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopped_) return;
+    stopped_ = true;
+    shutting_down_ = true;
+    for (auto& [id, live] : live_) {
+      live->stop = true;
+      std::lock_guard live_lock(live->mutex);
+      live->changed.notify_all();
+    }
+  }
+  queue_changed_.notify_all();
+  for (auto& worker : workers_) worker.join();
+  workers_.clear();
+  spdlog::info("job manager stopped");
+}
+
+std::shared_ptr<JobManager::Live> JobManager::find_live(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  auto it = live_.find(id);
+  return it == live_.end() ? nullptr : it->second;
+}
+
+// Caller holds live.mutex.
+void JobManager::publish(Live& live, gel::v1::JobUpdate update) {
+  update.set_sequence(++live.sequence);
+  if (update.kind() == gel::v1::JobUpdate::PROGRESS) {
+    live.progress = std::move(update);
+  } else {
+    live.history.push_back(std::move(update));
+  }
+  live.changed.notify_all();
+}
+
+void JobManager::set_state(const std::shared_ptr<Live>& live, JobState state, const std::string& message) {
+  const auto now = now_ms();
+  std::string id;
+  {
+    std::lock_guard lock(live->mutex);
+    id = live->job.id();
+  }
+  store_->set_state(id, state, message, now);
+  std::lock_guard lock(live->mutex);
+  live->job.set_state(state);
+  live->job.set_error(message);
+  if (state == gel::v1::JOB_STATE_RUNNING && live->job.started_unix_ms() == 0) live->job.set_started_unix_ms(now);
+  if (is_terminal(state)) {
+    live->job.set_finished_unix_ms(now);
+    live->ended = true;
+  }
+  gel::v1::JobUpdate update;
+  update.set_kind(gel::v1::JobUpdate::STATE);
+  *update.mutable_job() = live->job;
+  update.set_member(live->job.member());
+  publish(*live, std::move(update));
+  spdlog::info("job {}: {}{}{}", id, Store::state_name(state), message.empty() ? "" : ": ", message);
+}
+
+void JobManager::job_log(const std::string& id, const std::string& level, const std::string& message) {
+  spdlog::log(spdlog::level::from_str(level), "job {}: {}", id, message);
+  store_->add_log(id, level, message, now_ms());
+  if (auto live = find_live(id)) {
+    std::lock_guard lock(live->mutex);
+    gel::v1::JobUpdate update;
+    update.set_kind(gel::v1::JobUpdate::LOG);
+    update.set_message(message);
+    update.set_member(live->job.member());
+    publish(*live, std::move(update));
+  }
+}
+
+gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& request) {
+  if (shutting_down_) throw unavailable();
+  if (request.seeds_size() > options_.limits.max_seeds) {
+    throw ApiError(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                   "seeds: " + std::to_string(request.seeds_size()) + " ensemble members, the limit is " +
+                       std::to_string(options_.limits.max_seeds));
+  }
+  for (const auto& [key, value] : request.labels()) {
+    if (key.empty() || key.find('=') != std::string::npos) {
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "labels: key '" + key + "' must be non-empty without '='");
+    }
+  }
+  if (request.name().size() > 256) {
+    throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "name: longer than 256 characters");
+  }
+  Engine::Prepared prepared = engine_->prepare(request, options_.limits);
+
+  gel::v1::Job job;
+  job.set_name(request.name());
+  *job.mutable_labels() = request.labels();
+  *job.mutable_scene() = prepared.scene;
+  if (request.seeds_size() > 0) {
+    *job.mutable_seeds() = request.seeds();
+  } else {
+    job.add_seeds(prepared.scene.generator().seed());
+  }
+  job.set_particles(prepared.particles);
+  job.set_bond_preset(prepared.bond_preset);
+  job.set_created_unix_ms(now_ms());
+
+  {
+    std::lock_guard lock(mutex_);
+    if (shutting_down_) throw unavailable();
+    if (queue_.size() + reserved_ >= options_.limits.max_queue) {
+      throw ApiError(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                     "queue full: " + std::to_string(queue_.size()) + " jobs queued, the limit is " +
+                         std::to_string(options_.limits.max_queue));
+    }
+    ++reserved_;
+  }
+  // Committed before the reply: an acknowledged job is never lost.
+  try {
+    store_->insert_job(job, prepared.scene_json, prepared.parameters);
+  } catch (...) {
+    std::lock_guard lock(mutex_);
+    --reserved_;
+    throw;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    --reserved_;
+    auto live = std::make_shared<Live>();
+    live->job = job;
+    live_[job.id()] = live;
+    queue_.push_back(job.id());
+  }
+  queue_changed_.notify_one();
+  spdlog::info("job {}: queued ({} particles, {} seed(s), name '{}')", job.id(), job.particles(), job.seeds_size(),
+               job.name());
+  gel::v1::SubmitJobResponse response;
+  response.set_job_id(job.id());
+  *response.mutable_job() = std::move(job);
+  return response;
+}
+
+gel::v1::Job JobManager::get(const std::string& id) {
+  require_id(id);
+  if (auto live = find_live(id)) {
+    std::lock_guard lock(live->mutex);
+    return live->job;
+  }
+  auto job = store_->get_job(id);
+  if (!job) throw ApiError(grpc::StatusCode::NOT_FOUND, "job " + id + " not found");
+  return *job;
+}
+
+gel::v1::Job JobManager::cancel(const std::string& id) {
+  require_id(id);
+  auto live = find_live(id);
+  if (!live) {
+    auto job = store_->get_job(id);
+    if (!job) throw ApiError(grpc::StatusCode::NOT_FOUND, "job " + id + " not found");
+    if (is_terminal(job->state())) {
+      throw ApiError(grpc::StatusCode::FAILED_PRECONDITION,
+                     "job " + id + " already ended (" + Store::state_name(job->state()) + ")");
+    }
+    throw unavailable();
+  }
+  bool was_queued = false;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = std::find(queue_.begin(), queue_.end(), id);
+    if (it != queue_.end()) {
+      queue_.erase(it);
+      was_queued = true;
+    }
+  }
+  if (was_queued) {
+    set_state(live, gel::v1::JOB_STATE_CANCELLED, "cancelled before it ran");
+    {
+      std::lock_guard lock(mutex_);
+      live_.erase(id);
+    }
+    std::lock_guard lock(live->mutex);
+    return live->job;
+  }
+  std::unique_lock lock(live->mutex);
+  if (live->ended) {
+    throw ApiError(grpc::StatusCode::FAILED_PRECONDITION,
+                   "job " + id + " already ended (" + Store::state_name(live->job.state()) + ")");
+  }
+  live->cancel_requested = true;
+  live->stop = true;
+  lock.unlock();
+  live->changed.notify_all();
+  lock.lock();
+  // The run checks its stop flag often; wait a little so the reply usually shows "cancelled".
+  live->changed.wait_for(lock, std::chrono::seconds(20), [&] { return live->ended; });
+  return live->job;
+}
+
+gel::v1::ListJobsResponse JobManager::list(const gel::v1::ListJobsRequest& request) {
+  JobFilter filter;
+  filter.state = request.state();
+  filter.name = request.name();
+  if (!request.label().empty()) {
+    auto eq = request.label().find('=');
+    filter.label_key = request.label().substr(0, eq);
+    if (eq != std::string::npos) filter.label_value = request.label().substr(eq + 1);
+  }
+  if (request.page_size() < 0) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "page_size: must be >= 0");
+  filter.limit = request.page_size() == 0 ? 50 : std::min(request.page_size(), 1000);
+  if (!request.page_token().empty()) {
+    try {
+      std::size_t pos = 0;
+      filter.before_seq = std::stoll(request.page_token(), &pos);
+      if (pos != request.page_token().size() || filter.before_seq <= 0) throw std::invalid_argument("");
+    } catch (const std::exception&) {
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "page_token: not a token from a previous ListJobs");
+    }
+  }
+  ++filter.limit;  // one more, to know whether there is a next page
+  auto rows = store_->list_jobs(filter);
+  gel::v1::ListJobsResponse response;
+  const std::size_t page = static_cast<std::size_t>(filter.limit - 1);
+  for (std::size_t i = 0; i < rows.size() && i < page; ++i) {
+    gel::v1::Job job = rows[i].second;
+    if (auto live = find_live(job.id())) {
+      std::lock_guard lock(live->mutex);
+      job = live->job;
+    }
+    *response.add_jobs() = std::move(job);
+  }
+  if (rows.size() > page) response.set_next_page_token(std::to_string(rows[page - 1].first));
+  return response;
+}
+
+gel::v1::Curve JobManager::member_curve(const gel::v1::Job& job, const std::vector<StoredRow>& rows, int member) {
+  gel::v1::Curve curve;
+  *curve.mutable_scene() = job.scene();
+  if (member < job.seeds_size()) curve.mutable_scene()->mutable_generator()->set_seed(job.seeds(member));
+  curve.set_particles(static_cast<std::int32_t>(job.particles()));
+  curve.set_program_version(engine_->program_version());
+  for (const auto& r : rows) {
+    if (r.member == member) *curve.add_rows() = r.row;
+  }
+  return curve;
+}
+
+gel::v1::GetCurveResponse JobManager::curve(const std::string& id) {
+  gel::v1::Job job = get(id);
+  auto rows = store_->rows(id);
+  gel::v1::GetCurveResponse response;
+  response.set_job_id(id);
+  response.set_state(job.state());
+  const int members = std::max(1, job.seeds_size());
+  for (int m = 0; m < members; ++m) {
+    auto* mc = response.add_members();
+    mc->set_member(m);
+    mc->set_seed(m < job.seeds_size() ? job.seeds(m) : 0);
+    *mc->mutable_curve() = member_curve(job, rows, m);
+  }
+  nlohmann::json out;
+  if (members == 1) {
+    out = nlohmann::json::parse(engine_->curve_json(response.members(0).curve()));
+  } else {
+    // Mean and sample standard deviation per phi_k over the members that reached it.
+    std::map<int, std::vector<const gel::v1::CurveRow*>> by_k;
+    for (const auto& r : rows) by_k[r.row.k()].push_back(&r.row);
+    nlohmann::json json_rows = nlohmann::json::array();
+    for (const auto& [k, list] : by_k) {
+      auto* er = response.add_ensemble();
+      er->set_k(k);
+      er->set_n(static_cast<int>(list.size()));
+      nlohmann::json jr{{"k", k}, {"n", list.size()}};
+      auto stat = [&](gel::v1::Stat* s, const char* key, double (gel::v1::CurveRow::*get)() const) {
+        double sum = 0, sq = 0;
+        for (const auto* row : list) sum += (row->*get)();
+        const double mean = sum / static_cast<double>(list.size());
+        for (const auto* row : list) sq += ((row->*get)() - mean) * ((row->*get)() - mean);
+        const double sd = list.size() > 1 ? std::sqrt(sq / static_cast<double>(list.size() - 1)) : 0.0;
+        s->set_mean(mean);
+        s->set_std(sd);
+        jr[key] = mean;
+        jr[std::string(key) + "_std"] = sd;
+      };
+      stat(er->mutable_phi(), "phi", &gel::v1::CurveRow::phi);
+      stat(er->mutable_p(), "P", &gel::v1::CurveRow::p);
+      stat(er->mutable_p_top(), "P_top", &gel::v1::CurveRow::p_top);
+      stat(er->mutable_p_bot(), "P_bot", &gel::v1::CurveRow::p_bot);
+      stat(er->mutable_contact_number(), "contact_number", &gel::v1::CurveRow::contact_number);
+      stat(er->mutable_stored_energy(), "stored_energy", &gel::v1::CurveRow::stored_energy);
+      stat(er->mutable_dissipated_energy(), "dissipated_energy", &gel::v1::CurveRow::dissipated_energy);
+      json_rows.push_back(std::move(jr));
+    }
+    out["particles"] = job.particles();
+    out["seeds"] = nlohmann::json(std::vector<std::uint64_t>(job.seeds().begin(), job.seeds().end()));
+    out["rows"] = std::move(json_rows);
+    nlohmann::json member_json = nlohmann::json::array();
+    for (const auto& mc : response.members()) {
+      auto mj = nlohmann::json::parse(engine_->curve_json(mc.curve()));
+      mj["seed"] = mc.seed();
+      member_json.push_back(std::move(mj));
+    }
+    out["members"] = std::move(member_json);
+  }
+  out["job_id"] = id;
+  out["state"] = Store::state_name(job.state());
+  response.set_json(out.dump());
+  return response;
+}
+
+gel::v1::QueryCurvesResponse JobManager::query(const gel::v1::QueryCurvesRequest& request) {
+  CurveFilter filter;
+  filter.bond_preset = request.bond_preset();
+  for (const auto& [k, v] : request.labels()) filter.labels.emplace_back(k, v);
+  for (int i = 0; i < request.parameters_size(); ++i) {
+    const auto& p = request.parameters(i);
+    if (p.field().empty()) {
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
+                     "parameters[" + std::to_string(i) + "].field: must name a scene field, e.g. generator.lx");
+    }
+    CurveFilter::Parameter fp;
+    fp.name = p.field();
+    fp.equals = p.equals();
+    if (p.has_min()) fp.min = p.min();
+    if (p.has_max()) fp.max = p.max();
+    filter.parameters.push_back(std::move(fp));
+  }
+  filter.state = request.state() == gel::v1::JOB_STATE_UNSPECIFIED ? gel::v1::JOB_STATE_SUCCEEDED : request.state();
+  if (request.limit() < 0) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "limit: must be >= 0");
+  filter.limit = request.limit() == 0 ? 100 : std::min(request.limit(), 1000);
+  gel::v1::QueryCurvesResponse response;
+  for (const auto& id : store_->query_curves(filter)) {
+    auto* entry = response.add_curves();
+    *entry->mutable_job() = get(id);
+    *entry->mutable_curve() = curve(id);
+  }
+  return response;
+}
+
+gel::v1::GetLogsResponse JobManager::logs(const gel::v1::GetLogsRequest& request) {
+  get(request.job_id());  // NOT_FOUND
+  if (request.limit() < 0) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "limit: must be >= 0");
+  gel::v1::GetLogsResponse response;
+  for (auto& line : store_->logs(request.job_id(), request.after_id(), request.limit() == 0 ? 1000 : request.limit())) {
+    *response.add_lines() = std::move(line);
+  }
+  return response;
+}
+
+void JobManager::watch(const std::string& id, const std::function<bool(const gel::v1::JobUpdate&)>& write,
+                       const std::function<bool()>& cancelled) {
+  require_id(id);
+  if (shutting_down_) throw unavailable();
+  WatcherSlot slot(watchers_);
+  if (watchers_.load() > options_.limits.max_watchers) {
+    throw ApiError(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                   "too many watchers: the limit is " + std::to_string(options_.limits.max_watchers));
+  }
+  auto live = find_live(id);
+  gel::v1::JobUpdate snapshot;
+  snapshot.set_kind(gel::v1::JobUpdate::SNAPSHOT);
+  if (!live) {
+    // Not queued or running: its state is final; one snapshot and the stream ends.
+    auto job = store_->get_job(id);
+    if (!job) throw ApiError(grpc::StatusCode::NOT_FOUND, "job " + id + " not found");
+    snapshot.set_member(job->member());
+    *snapshot.mutable_job() = std::move(*job);
+    if (!write(snapshot)) return;
+    for (const auto& update : stored_rows(id, 0)) {
+      if (!write(update)) return;
+    }
+    return;
+  }
+  std::int64_t seen = 0;
+  std::vector<gel::v1::JobUpdate> rows_so_far;
+  {
+    std::lock_guard lock(live->mutex);
+    *snapshot.mutable_job() = live->job;
+    snapshot.set_member(live->job.member());
+    seen = live->sequence;
+    snapshot.set_sequence(seen);
+    rows_so_far = stored_rows(id, seen);
+  }
+  // The snapshot, then the rows stored so far (ROW updates carrying the snapshot's sequence),
+  // then live updates.
+  if (!write(snapshot)) return;
+  for (const auto& update : rows_so_far) {
+    if (!write(update)) return;
+  }
+  std::vector<gel::v1::JobUpdate> pending;
+  for (;;) {
+    bool ended = false;
+    {
+      std::unique_lock lock(live->mutex);
+      live->changed.wait_for(lock, std::chrono::milliseconds(200),
+                             [&] { return live->sequence > seen || live->ended || shutting_down_; });
+      // History is in sequence order; the latest progress slots in where its sequence says.
+      auto it = std::upper_bound(live->history.begin(), live->history.end(), seen,
+                                 [](std::int64_t s, const gel::v1::JobUpdate& u) { return s < u.sequence(); });
+      bool progress_sent = live->progress.sequence() <= seen;
+      for (; it != live->history.end(); ++it) {
+        if (!progress_sent && live->progress.sequence() < it->sequence()) {
+          pending.push_back(live->progress);
+          progress_sent = true;
+        }
+        pending.push_back(*it);
+      }
+      if (!progress_sent) pending.push_back(live->progress);
+      seen = live->sequence;
+      ended = live->ended;
+    }
+    for (const auto& update : pending) {
+      if (!write(update)) return;
+    }
+    pending.clear();
+    if (ended) return;
+    if (cancelled && cancelled()) return;
+    if (shutting_down_) throw unavailable();
+  }
+}
+
+std::vector<gel::v1::JobUpdate> JobManager::stored_rows(const std::string& id, std::int64_t sequence) {
+  std::vector<gel::v1::JobUpdate> out;
+  for (auto& r : store_->rows(id)) {
+    gel::v1::JobUpdate update;
+    update.set_kind(gel::v1::JobUpdate::ROW);
+    update.set_member(r.member);
+    update.set_seed(r.seed);
+    update.set_sequence(sequence);
+    *update.mutable_row() = std::move(r.row);
+    out.push_back(std::move(update));
+  }
+  return out;
+}
+
+void JobManager::worker_loop() {
+  for (;;) {
+    std::shared_ptr<Live> live;
+    {
+      std::unique_lock lock(mutex_);
+      queue_changed_.wait(lock, [&] { return shutting_down_ || !queue_.empty(); });
+      if (shutting_down_) return;
+      const std::string id = queue_.front();
+      queue_.pop_front();
+      auto it = live_.find(id);
+      if (it != live_.end()) live = it->second;
+    }
+    if (!live) continue;
+    run_job(live);
+    bool ended = false;
+    std::string id;
+    {
+      std::lock_guard lock(live->mutex);
+      ended = live->ended;
+      id = live->job.id();
+    }
+    if (ended) {
+      std::lock_guard lock(mutex_);
+      live_.erase(id);
+    }
+  }
+}
+
+void JobManager::run_job(const std::shared_ptr<Live>& live) {
+  gel::v1::Job job;
+  {
+    std::lock_guard lock(live->mutex);
+    job = live->job;
+  }
+  const std::string id = job.id();
+  if (live->stop && live->cancel_requested) {
+    set_state(live, gel::v1::JOB_STATE_CANCELLED, "cancelled before it ran");
+    return;
+  }
+  const bool resumed = job.state() == gel::v1::JOB_STATE_RUNNING;
+  set_state(live, gel::v1::JOB_STATE_RUNNING, "");
+  if (resumed) job_log(id, "info", "resuming after a restart at member " + std::to_string(job.member()));
+  try {
+    for (int member = job.member(); member < job.seeds_size(); ++member) {
+      if (live->stop) break;
+      const std::uint64_t seed = job.seeds(member);
+      if (member != job.member()) {
+        store_->set_member(id, member);
+        std::lock_guard lock(live->mutex);
+        live->job.set_member(member);
+      }
+      RunContext ctx;
+      ctx.job_id = id;
+      ctx.member = member;
+      ctx.seed = seed;
+      ctx.scene = job.scene();
+      ctx.scene.mutable_generator()->set_seed(seed);
+      ctx.scene_json = engine_->scene_json(ctx.scene);
+      ctx.out_dir = (fs::absolute(options_.data_dir) / job.out_dir() /
+                     ("m" + std::to_string(member) + "-seed" + std::to_string(seed)))
+                        .string();
+      fs::create_directories(ctx.out_dir);
+      ctx.stop = &live->stop;
+      ctx.cancel = &live->cancel_requested;
+      ctx.handle = store_->member_handle(id, member);
+      ctx.save_handle = [this, id, member, seed](const std::string& handle) {
+        store_->set_member_handle(id, member, seed, executor_->name(), handle, now_ms());
+      };
+      ctx.on_progress = [this, live, member, seed](const gel::v1::Progress& progress) {
+        std::lock_guard lock(live->mutex);
+        *live->job.mutable_progress() = progress;
+        gel::v1::JobUpdate update;
+        update.set_kind(gel::v1::JobUpdate::PROGRESS);
+        *update.mutable_progress() = progress;
+        update.set_member(member);
+        update.set_seed(seed);
+        publish(*live, std::move(update));
+      };
+      ctx.on_row = [this, live, id, member, seed](const gel::v1::CurveRow& row) {
+        // Stored and published under the job's lock, so that a watcher's snapshot (taken under
+        // the same lock) holds each row exactly once: from the store or from the stream.
+        std::lock_guard lock(live->mutex);
+        store_->put_row(id, member, seed, row, now_ms());
+        live->job.set_rows(store_->row_count(id));
+        gel::v1::JobUpdate update;
+        update.set_kind(gel::v1::JobUpdate::ROW);
+        *update.mutable_row() = row;
+        update.set_member(member);
+        update.set_seed(seed);
+        publish(*live, std::move(update));
+      };
+      ctx.log = [this, id](const std::string& level, const std::string& message) { job_log(id, level, message); };
+      job_log(id, "info",
+              "member " + std::to_string(member) + " (seed " + std::to_string(seed) + ") starts in " + ctx.out_dir +
+                  (ctx.handle.empty() ? "" : " (handle " + ctx.handle + ")"));
+      RunResult result = executor_->run(ctx);
+      if (!result.finished) break;
+      std::vector<gel::v1::CurveRow> rows(result.curve.rows().begin(), result.curve.rows().end());
+      store_->replace_rows(id, member, seed, rows, now_ms());
+      {
+        std::lock_guard lock(live->mutex);
+        live->job.set_rows(store_->row_count(id));
+      }
+      job_log(id, "info", "member " + std::to_string(member) + " finished with " + std::to_string(rows.size()) + " rows");
+      if (member + 1 == job.seeds_size()) {
+        set_state(live, gel::v1::JOB_STATE_SUCCEEDED, "");
+        return;
+      }
+    }
+    if (live->cancel_requested) {
+      set_state(live, gel::v1::JOB_STATE_CANCELLED, "cancelled while running");
+    } else if (shutting_down_) {
+      job_log(id, "info", "checkpointed for shutdown; resumes on restart");
+    } else {
+      set_state(live, gel::v1::JOB_STATE_FAILED, "the run stopped before the last target");
+    }
+  } catch (const std::exception& e) {
+    if (live->cancel_requested) {
+      set_state(live, gel::v1::JOB_STATE_CANCELLED, "cancelled while running");
+    } else {
+      try {
+        job_log(id, "error", e.what());
+      } catch (...) {
+      }
+      set_state(live, gel::v1::JOB_STATE_FAILED, e.what());
+    }
+  }
+}
+
+}  // namespace geld

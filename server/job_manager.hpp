@@ -1,0 +1,149 @@
+#pragma once
+// The daemon's core without any network: a bounded job queue, a pool of worker threads, the
+// SQLite store and the per-job update channels that watchers follow. The gRPC service is a
+// thin layer over this class, and tests drive it directly.
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <tuple>
+#include <vector>
+
+#include <grpcpp/support/status.h>
+
+#include "executor.hpp"
+#include "gel/v1/service.pb.h"
+#include "store.hpp"
+
+namespace geld {
+
+// An error with the gRPC status code the client gets.
+class ApiError : public std::runtime_error {
+ public:
+  ApiError(grpc::StatusCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
+  grpc::StatusCode code() const { return code_; }
+
+ private:
+  grpc::StatusCode code_;
+};
+
+struct Limits {
+  std::size_t max_queue = 1000;            // queued jobs
+  std::int64_t max_particles = 2'000'000;  // per ensemble member
+  int max_seeds = 1000;                    // ensemble members per job
+  int max_watchers = 256;                  // concurrent WatchJob streams, all jobs
+};
+
+// The scene side of jobs: validation, resolution and the curve's JSON shape. The compression
+// engine in geld (server/compression_engine.cpp); tests may inject their own.
+class Engine {
+ public:
+  virtual ~Engine() = default;
+  struct Prepared {
+    gel::v1::Scene scene;  // resolved
+    std::int64_t particles = 0;
+    std::string bond_preset;
+    // The resolved scene flattened: (dotted name, text value, numeric value or NaN).
+    std::vector<std::tuple<std::string, std::string, double>> parameters;
+    std::string scene_json;
+  };
+  // Validates and resolves a submission; throws ApiError (INVALID_ARGUMENT naming the field,
+  // RESOURCE_EXHAUSTED over the limits).
+  virtual Prepared prepare(const gel::v1::SubmitJobRequest& request, const Limits& limits) = 0;
+  // The scene with another seed, as JSON (for executors that hand it to a process).
+  virtual std::string scene_json(const gel::v1::Scene& scene) = 0;
+  // The curve as one JSON object with a "rows" list.
+  virtual std::string curve_json(const gel::v1::Curve& curve) = 0;
+  virtual std::string program_version() = 0;
+};
+
+// The compression engine (gelcore).
+std::shared_ptr<Engine> make_compression_engine();
+
+struct ManagerOptions {
+  std::string data_dir = "data";  // geld.sqlite and jobs/<id>/ live here
+  int workers = 0;                // 0: number of cores
+  Limits limits;
+};
+
+class JobManager {
+ public:
+  JobManager(ManagerOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor);
+  ~JobManager();  // shuts down (checkpointing running jobs) if still running
+
+  // Recovers the store's queued and running jobs and starts the workers.
+  void start();
+  // Stops taking work (calls get UNAVAILABLE), asks running jobs to checkpoint and stop, waits
+  // for the workers. Running jobs stay "running" in the store and resume on the next start.
+  void shutdown();
+  bool shutting_down() const { return shutting_down_.load(); }
+
+  gel::v1::SubmitJobResponse submit(const gel::v1::SubmitJobRequest& request);
+  gel::v1::Job get(const std::string& id);
+  gel::v1::Job cancel(const std::string& id);
+  gel::v1::ListJobsResponse list(const gel::v1::ListJobsRequest& request);
+  gel::v1::GetCurveResponse curve(const std::string& id);
+  gel::v1::QueryCurvesResponse query(const gel::v1::QueryCurvesRequest& request);
+  gel::v1::GetLogsResponse logs(const gel::v1::GetLogsRequest& request);
+
+  // Streams a job's updates to `write` (returns false when the receiver is gone) until the job
+  // ends, `cancelled()` turns true, or the daemon shuts down (then throws UNAVAILABLE).
+  void watch(const std::string& id, const std::function<bool(const gel::v1::JobUpdate&)>& write,
+             const std::function<bool()>& cancelled);
+
+  Store& store() { return *store_; }
+  const ManagerOptions& options() const { return options_; }
+  int active_watchers() const { return watchers_.load(); }
+
+ private:
+  // The in-memory side of a queued or running job: its current Job message, its stop flag
+  // and its update history (states, rows and log lines in full; progress as the latest one).
+  struct Live {
+    std::mutex mutex;
+    std::condition_variable changed;
+    gel::v1::Job job;
+    std::int64_t sequence = 0;
+    std::vector<gel::v1::JobUpdate> history;
+    gel::v1::JobUpdate progress;  // latest; sequence 0: none yet
+    bool ended = false;
+    std::atomic<bool> cancel_requested{false};
+    std::atomic<bool> stop{false};
+  };
+
+  void worker_loop();
+  void run_job(const std::shared_ptr<Live>& live);
+  void publish(Live& live, gel::v1::JobUpdate update);
+  void set_state(const std::shared_ptr<Live>& live, gel::v1::JobState state, const std::string& message);
+  void job_log(const std::string& id, const std::string& level, const std::string& message);
+  std::shared_ptr<Live> find_live(const std::string& id);
+  gel::v1::Curve member_curve(const gel::v1::Job& job, const std::vector<StoredRow>& rows, int member);
+  std::vector<gel::v1::JobUpdate> stored_rows(const std::string& id, std::int64_t sequence);
+  static std::string require_id(const std::string& id);
+
+  ManagerOptions options_;
+  std::shared_ptr<Engine> engine_;
+  std::shared_ptr<Executor> executor_;
+  std::unique_ptr<Store> store_;
+
+  std::mutex mutex_;  // queue_ and live_
+  std::condition_variable queue_changed_;
+  std::deque<std::string> queue_;
+  std::size_t reserved_ = 0;  // submissions between the queue-length check and the insert
+  std::map<std::string, std::shared_ptr<Live>> live_;
+  std::vector<std::thread> workers_;
+  std::atomic<bool> shutting_down_{false};
+  std::atomic<int> watchers_{0};
+  bool started_ = false;
+  bool stopped_ = false;
+};
+
+std::int64_t now_ms();
+
+}  // namespace geld

@@ -1,0 +1,121 @@
+#pragma once
+// The daemon's durable state: one SQLite file in WAL mode. Every write is a committed
+// transaction before the call returns, so anything acknowledged to a client survives a crash.
+//
+// Schema (version 3; migrations run from the `schema_version` table on open):
+//   schema_version(version)                          one row: the schema's version
+//   jobs(seq PK autoincrement, id UNIQUE, name, state, scene BLOB (resolved gel.v1.Scene),
+//        scene_json, seeds (JSON array), particles, bond_preset, created_ms, started_ms,
+//        finished_ms, error, member, out_dir)
+//   job_labels(job_id, key, value)                   PK (job_id, key)
+//   states(id PK, job_id, state, at_ms, message)     every state change, in order
+//   parameters(job_id, name, value_text, value_num)  the resolved scene flattened to dotted
+//                                                    names (for QueryCurves)
+//   curve_rows(job_id, member, seed, k, phi, p, p_top, p_bot, contact_number, stored_energy,
+//              dissipated_energy, row BLOB (gel.v1.CurveRow), at_ms)  PK (job_id, member, k);
+//                                                    written at every equilibrium as reached
+//   events(id PK, job_id, member, k, at_ms, normal, sliding, rolling, created)
+//                                                    cumulative rupture counts at each row
+//   logs(id PK, job_id, at_ms, level, message)       the job's log lines
+//   member_runs(job_id, member, seed, executor, handle, updated_ms)  PK (job_id, member); an
+//                                                    executor's handle (e.g. Slurm job id)
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "gel/v1/service.pb.h"
+
+struct sqlite3;
+
+namespace geld {
+
+class StoreError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct JobFilter {
+  gel::v1::JobState state = gel::v1::JOB_STATE_UNSPECIFIED;
+  std::string label_key, label_value;  // label_value empty: any value
+  std::string name;
+  std::int64_t before_seq = 0;         // paging: only jobs with seq < before_seq (0: any)
+  int limit = 50;
+};
+
+struct CurveFilter {
+  std::string bond_preset;
+  std::vector<std::pair<std::string, std::string>> labels;
+  struct Parameter {
+    std::string name;
+    std::string equals;
+    std::optional<double> min, max;
+  };
+  std::vector<Parameter> parameters;
+  gel::v1::JobState state = gel::v1::JOB_STATE_SUCCEEDED;
+  int limit = 100;
+};
+
+struct StoredRow {
+  int member = 0;
+  std::uint64_t seed = 0;
+  gel::v1::CurveRow row;
+};
+
+class Store {
+ public:
+  static constexpr int kSchemaVersion = 3;
+
+  explicit Store(const std::string& path);
+  ~Store();
+  Store(const Store&) = delete;
+  Store& operator=(const Store&) = delete;
+
+  int schema_version();
+
+  // Inserts a new job (state queued) with its labels and flattened parameters; assigns and
+  // returns its id. `parameters` are (dotted name, text, number or NaN).
+  std::string insert_job(gel::v1::Job& job, const std::string& scene_json,
+                         const std::vector<std::tuple<std::string, std::string, double>>& parameters);
+
+  void set_state(const std::string& id, gel::v1::JobState state, const std::string& message,
+                 std::int64_t now_ms);
+  void set_member(const std::string& id, int member);
+  void put_row(const std::string& id, int member, std::uint64_t seed, const gel::v1::CurveRow& row,
+               std::int64_t now_ms);
+  // Replaces a member's rows by a finished curve's (one transaction).
+  void replace_rows(const std::string& id, int member, std::uint64_t seed,
+                    const std::vector<gel::v1::CurveRow>& rows, std::int64_t now_ms);
+  // An executor's handle for a member (committed before the call returns).
+  void set_member_handle(const std::string& id, int member, std::uint64_t seed, const std::string& executor,
+                         const std::string& handle, std::int64_t now_ms);
+  std::string member_handle(const std::string& id, int member);  // "" if none
+  std::int64_t add_log(const std::string& job_id, const std::string& level, const std::string& message,
+                       std::int64_t now_ms);
+
+  std::optional<gel::v1::Job> get_job(const std::string& id);
+  // Newest first; the second value is the seq of the last job returned (for paging).
+  std::vector<std::pair<std::int64_t, gel::v1::Job>> list_jobs(const JobFilter& filter);
+  std::vector<std::string> job_ids_in_state(gel::v1::JobState state);  // oldest first
+  std::vector<std::string> query_curves(const CurveFilter& filter);   // newest first
+  std::vector<StoredRow> rows(const std::string& id);                 // by member, k
+  int row_count(const std::string& id);
+  std::vector<gel::v1::LogLine> logs(const std::string& id, std::int64_t after_id, int limit);
+  std::vector<std::pair<std::string, std::int64_t>> states(const std::string& id);  // (state, at_ms)
+
+  static std::string state_name(gel::v1::JobState state);  // "queued", "running", ...
+  static gel::v1::JobState state_from_name(const std::string& name);
+
+ private:
+  void exec(const char* sql);
+  void migrate();
+  gel::v1::Job read_job_locked(const std::string& id, bool& found);
+
+  sqlite3* db_ = nullptr;
+  std::mutex mutex_;
+};
+
+}  // namespace geld
