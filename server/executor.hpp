@@ -64,9 +64,9 @@ class Executor {
   virtual RunResult run(const RunContext& ctx) = 0;
 };
 
-// What `geld --executor NAME` and the config file give an executor. Keys of the config file
-// that start with "NAME." land in `settings` without the prefix (e.g. "slurm.partition=debug"
-// gives settings["partition"] = "debug").
+// What `geld --executor NAME` and the config file give an executor. geld's flags (and config
+// keys) "--NAME-KEY" land in `settings` as KEY (e.g. `--slurm-shared-dir /shared/gel` gives
+// settings["shared-dir"] = "/shared/gel"); only flags given (or set in the file) appear.
 struct ExecutorConfig {
   std::string name = "threads";
   std::string data_dir;      // absolute; members' out_dirs are below it

@@ -41,7 +41,8 @@ struct WatcherSlot {
 JobManager::JobManager(ManagerOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor)
     : options_(std::move(options)), engine_(std::move(engine)), executor_(std::move(executor)) {
   fs::create_directories(fs::path(options_.data_dir) / "jobs");
-  store_ = std::make_unique<Store>((fs::path(options_.data_dir) / "geld.sqlite").string());
+  store_ = std::make_unique<Store>(options_.db_path.empty() ? (fs::path(options_.data_dir) / "geld.sqlite").string()
+                                                          : options_.db_path);
   if (options_.workers <= 0) options_.workers = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 

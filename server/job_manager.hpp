@@ -69,6 +69,7 @@ std::shared_ptr<Engine> make_compression_engine();
 
 struct ManagerOptions {
   std::string data_dir = "data";  // geld.sqlite and jobs/<id>/ live here
+  std::string db_path;            // "": data_dir/geld.sqlite
   int workers = 0;                // 0: number of cores
   Limits limits;
 };

@@ -1,0 +1,225 @@
+// geld: the job daemon. Foreground; logs to stderr (and --log-file). SIGTERM/SIGINT: stop taking
+// work, checkpoint running jobs, exit 0. Exit 2 on bad flags or configuration.
+#include <pthread.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "executor.hpp"
+#include "service.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// --config FILE: `key = value` lines (TOML-like: strings in double quotes, '#' comments) or one
+// JSON object; keys are the long flag names ("data-dir"; "data_dir" works too). Flags given on
+// the command line win.
+class ConfigFile : public CLI::ConfigTOML {
+ public:
+  std::vector<CLI::ConfigItem> from_config(std::istream& input) const override {
+    std::stringstream buffer;
+    buffer << input.rdbuf();
+    const std::string text = buffer.str();
+    const auto first = text.find_first_not_of(" \t\r\n");
+    std::vector<CLI::ConfigItem> items;
+    if (first != std::string::npos && text[first] == '{') {
+      nlohmann::json json;
+      try {
+        json = nlohmann::json::parse(text);
+      } catch (const std::exception& e) {
+        throw CLI::ConfigError(std::string("config: not valid JSON: ") + e.what());
+      }
+      if (!json.is_object()) throw CLI::ConfigError("config: the JSON must be one object");
+      for (const auto& [key, value] : json.items()) {
+        CLI::ConfigItem item;
+        item.name = key;
+        if (value.is_array()) {
+          for (const auto& v : value) item.inputs.push_back(v.is_string() ? v.get<std::string>() : v.dump());
+        } else {
+          item.inputs.push_back(value.is_string() ? value.get<std::string>() : value.dump());
+        }
+        items.push_back(std::move(item));
+      }
+    } else {
+      std::istringstream again(text);
+      items = CLI::ConfigTOML::from_config(again);
+    }
+    for (auto& item : items) std::replace(item.name.begin(), item.name.end(), '_', '-');
+    return items;
+  }
+};
+
+std::string default_data_dir() {
+  if (const char* xdg = std::getenv("XDG_DATA_HOME"); xdg && *xdg) return (fs::path(xdg) / "geld").string();
+  if (const char* home = std::getenv("HOME"); home && *home) {
+    return (fs::path(home) / ".local" / "share" / "geld").string();
+  }
+  return "geld-data";
+}
+
+std::string self_dir() {
+  std::error_code ec;
+  auto exe = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : exe.parent_path().string();
+}
+
+// gelsim next to geld, in the build tree's core/, or on PATH.
+std::string default_gelsim() {
+  const auto dir = self_dir();
+  if (!dir.empty()) {
+    for (const auto& candidate : {fs::path(dir) / "gelsim", fs::path(dir) / ".." / "core" / "gelsim"}) {
+      if (fs::exists(candidate)) return fs::weakly_canonical(candidate).string();
+    }
+  }
+  return "gelsim";
+}
+
+std::string read_token(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument("token-file: cannot read " + path);
+  std::string token;
+  std::getline(in, token);
+  while (!token.empty() && (token.back() == '\r' || token.back() == ' ' || token.back() == '\t')) token.pop_back();
+  if (token.empty()) throw std::invalid_argument("token-file: " + path + " holds no token on its first line");
+  return token;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"geld: the gelsim job daemon (compressions of colloidal gels as jobs over gRPC)"};
+  app.set_version_flag("--version", std::string(GEL_VERSION));
+  app.config_formatter(std::make_shared<ConfigFile>());
+  app.set_config("--config", "", "Configuration file: 'key = value' lines or a JSON object; keys are flag names");
+
+  std::string listen = "127.0.0.1:50051";
+  std::string token_file, data_dir, db_path, log_level = "info", log_file;
+  std::string executor_name = "threads", gelsim;
+  int workers = 0;
+  geld::Limits limits;
+  app.add_option("--listen", listen, "host:port to listen on; a non-loopback address needs --token-file")
+      ->capture_default_str();
+  app.add_option("--token-file", token_file, "File whose first line is the bearer token every call must carry");
+  app.add_option("--data-dir", data_dir, "Data directory (SQLite store and the jobs' files); default " +
+                                             default_data_dir());
+  app.add_option("--db", db_path, "SQLite file; default DATA_DIR/geld.sqlite");
+  app.add_option("--workers", workers, "Jobs run at once (threads) or members followed (slurm); 0: cores")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--executor", executor_name, "Who runs the jobs: threads or slurm")->capture_default_str();
+  app.add_option("--gelsim", gelsim, "gelsim binary for executors that run it as a process");
+  app.add_option("--max-queue", limits.max_queue, "Queued jobs at most")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--max-particles", limits.max_particles, "Particles per ensemble member at most")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-seeds", limits.max_seeds, "Ensemble members per job at most")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-watchers", limits.max_watchers, "Concurrent WatchJob streams at most")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off")->capture_default_str();
+  app.add_option("--log-file", log_file, "Also append log lines to this file");
+  // Executor settings: --slurm-KEY VALUE reaches the slurm executor as settings[KEY].
+  std::map<std::string, std::string> slurm_settings;
+  const std::pair<const char*, const char*> slurm_keys[] = {
+      {"shared-dir", "Directory shared with the compute nodes (slurm executor)"},
+      {"gelsim", "gelsim's path on the compute nodes (slurm executor)"},
+      {"sbatch-args", "Extra sbatch arguments, split on spaces (slurm executor)"},
+      {"max-requeues", "Resubmissions after TIMEOUT/NODE_FAIL (slurm executor)"},
+      {"poll-interval", "Seconds between polls of squeue and progress files (slurm executor)"},
+      {"bin-dir", "Directory of sbatch/squeue/scancel/scontrol (slurm executor)"},
+  };
+  std::map<std::string, CLI::Option*> slurm_options;
+  for (const auto& [key, help] : slurm_keys) {
+    slurm_options[key] = app.add_option(std::string("--slurm-") + key, slurm_settings[key], help);
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::cerr << "geld: " << e.what() << "\n";
+    return 2;
+  }
+
+  // Logging.
+  try {
+    std::vector<spdlog::sink_ptr> sinks{std::make_shared<spdlog::sinks::stderr_color_sink_mt>()};
+    if (!log_file.empty()) sinks.push_back(std::make_shared<spdlog::sinks::basic_file_sink_mt>(log_file, false));
+    auto logger = std::make_shared<spdlog::logger>("geld", sinks.begin(), sinks.end());
+    const auto level = spdlog::level::from_str(log_level);
+    if (level == spdlog::level::off && log_level != "off") throw std::invalid_argument("log-level: unknown level " + log_level);
+    logger->set_level(level);
+    logger->flush_on(spdlog::level::info);
+    spdlog::set_default_logger(logger);
+  } catch (const std::exception& e) {
+    std::cerr << "geld: " << e.what() << "\n";
+    return 2;
+  }
+
+  geld::DaemonOptions options;
+  options.listen = listen;
+  options.manager.data_dir = data_dir.empty() ? default_data_dir() : data_dir;
+  options.manager.db_path = db_path;
+  options.manager.workers = workers;
+  options.manager.limits = limits;
+  geld::ExecutorConfig executor_config;
+  executor_config.name = executor_name;
+  executor_config.gelsim_path = gelsim.empty() ? default_gelsim() : gelsim;
+  try {
+    if (!token_file.empty()) options.token = read_token(token_file);
+    fs::create_directories(options.manager.data_dir);
+    executor_config.data_dir = fs::absolute(options.manager.data_dir).string();
+    for (const auto& [key, option] : slurm_options) {
+      if (option->count() > 0) executor_config.settings[key] = slurm_settings[key];
+    }
+  } catch (const std::exception& e) {
+    spdlog::critical("{}", e.what());
+    return 2;
+  }
+
+  // Signals go to a waiting thread (this one), never into the middle of the workers.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+
+  std::unique_ptr<geld::Daemon> daemon;
+  try {
+    std::shared_ptr<geld::Executor> executor = geld::make_executor(executor_config);
+    daemon = std::make_unique<geld::Daemon>(options, geld::make_compression_engine(), executor);
+    spdlog::info("geld {}: data dir {}, executor {}", GEL_VERSION, options.manager.data_dir, executor->name());
+    daemon->start();
+  } catch (const std::invalid_argument& e) {
+    spdlog::critical("{}", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    spdlog::critical("cannot start: {}", e.what());
+    return 1;
+  }
+  std::cout << "geld listening on " << daemon->address() << std::endl;
+
+  int received = 0;
+  sigwait(&signals, &received);
+  spdlog::info("{}: stopping (running jobs checkpoint and resume on the next start)",
+               received == SIGTERM ? "SIGTERM" : "SIGINT");
+  daemon->shutdown();
+  daemon.reset();
+  spdlog::shutdown();
+  return 0;
+}

@@ -1,0 +1,218 @@
+#include "service.hpp"
+
+#include <arpa/inet.h>
+
+#include <chrono>
+#include <filesystem>
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/support/server_interceptor.h>
+#include <spdlog/spdlog.h>
+
+#include "store.hpp"
+
+namespace geld {
+
+namespace {
+
+bool constant_time_equal(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  unsigned char diff = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
+  return diff == 0;
+}
+
+grpc::Status check_metadata(const std::multimap<grpc::string_ref, grpc::string_ref>& metadata,
+                            const std::string& token) {
+  auto it = metadata.find("authorization");
+  if (it == metadata.end()) {
+    return {grpc::StatusCode::UNAUTHENTICATED, "authorization: missing; this geld requires 'Bearer <token>'"};
+  }
+  const std::string_view value(it->second.data(), it->second.size());
+  constexpr std::string_view kBearer = "Bearer ";
+  if (value.substr(0, kBearer.size()) != kBearer || !constant_time_equal(value.substr(kBearer.size()), token)) {
+    return {grpc::StatusCode::UNAUTHENTICATED, "authorization: invalid bearer token"};
+  }
+  return grpc::Status::OK;
+}
+
+// Remote mode: every call (health and reflection included) without the token ends
+// UNAUTHENTICATED. GelService's handlers check the token themselves before doing anything;
+// this interceptor covers the services geld does not implement itself (their read-only answer
+// is replaced by the error status).
+class TokenInterceptor final : public grpc::experimental::Interceptor {
+ public:
+  explicit TokenInterceptor(std::shared_ptr<const std::string> token) : token_(std::move(token)) {}
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    using grpc::experimental::InterceptionHookPoints;
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
+      if (auto* metadata = methods->GetRecvInitialMetadata()) status_ = check_metadata(*metadata, *token_);
+    }
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS) && !status_.ok()) {
+      methods->ModifySendStatus(status_);
+    }
+    methods->Proceed();
+  }
+
+ private:
+  std::shared_ptr<const std::string> token_;
+  grpc::Status status_;
+};
+
+class TokenInterceptorFactory final : public grpc::experimental::ServerInterceptorFactoryInterface {
+ public:
+  explicit TokenInterceptorFactory(std::string token) : token_(std::make_shared<const std::string>(std::move(token))) {}
+  grpc::experimental::Interceptor* CreateServerInterceptor(grpc::experimental::ServerRpcInfo*) override {
+    return new TokenInterceptor(token_);
+  }
+
+ private:
+  std::shared_ptr<const std::string> token_;
+};
+
+}  // namespace
+
+grpc::Status TokenCheck::check(const grpc::ServerContextBase& context) const {
+  if (token_.empty()) return grpc::Status::OK;
+  return check_metadata(context.client_metadata(), token_);
+}
+
+template <class F>
+grpc::Status GelServiceImpl::guarded(grpc::ServerContext* context, const char* method, F&& body) {
+  if (auto status = auth_->check(*context); !status.ok()) {
+    spdlog::warn("{} from {}: {}", method, context->peer(), status.error_message());
+    return status;
+  }
+  try {
+    body();
+    return grpc::Status::OK;
+  } catch (const ApiError& e) {
+    spdlog::debug("{}: {} {}", method, static_cast<int>(e.code()), e.what());
+    return {e.code(), e.what()};
+  } catch (const StoreError& e) {
+    spdlog::error("{}: store: {}", method, e.what());
+    return {grpc::StatusCode::INTERNAL, std::string("store: ") + e.what()};
+  } catch (const std::exception& e) {
+    spdlog::error("{}: {}", method, e.what());
+    return {grpc::StatusCode::INTERNAL, e.what()};
+  }
+}
+
+grpc::Status GelServiceImpl::SubmitJob(grpc::ServerContext* context, const gel::v1::SubmitJobRequest* request,
+                                       gel::v1::SubmitJobResponse* response) {
+  return guarded(context, "SubmitJob", [&] { *response = manager_.submit(*request); });
+}
+
+grpc::Status GelServiceImpl::WatchJob(grpc::ServerContext* context, const gel::v1::WatchJobRequest* request,
+                                      grpc::ServerWriter<gel::v1::JobUpdate>* writer) {
+  return guarded(context, "WatchJob", [&] {
+    manager_.watch(
+        request->job_id(), [&](const gel::v1::JobUpdate& update) { return writer->Write(update); },
+        [&] { return context->IsCancelled(); });
+  });
+}
+
+grpc::Status GelServiceImpl::CancelJob(grpc::ServerContext* context, const gel::v1::CancelJobRequest* request,
+                                       gel::v1::Job* response) {
+  return guarded(context, "CancelJob", [&] { *response = manager_.cancel(request->job_id()); });
+}
+
+grpc::Status GelServiceImpl::GetJob(grpc::ServerContext* context, const gel::v1::GetJobRequest* request,
+                                    gel::v1::Job* response) {
+  return guarded(context, "GetJob", [&] { *response = manager_.get(request->job_id()); });
+}
+
+grpc::Status GelServiceImpl::ListJobs(grpc::ServerContext* context, const gel::v1::ListJobsRequest* request,
+                                      gel::v1::ListJobsResponse* response) {
+  return guarded(context, "ListJobs", [&] { *response = manager_.list(*request); });
+}
+
+grpc::Status GelServiceImpl::GetCurve(grpc::ServerContext* context, const gel::v1::GetCurveRequest* request,
+                                      gel::v1::GetCurveResponse* response) {
+  return guarded(context, "GetCurve", [&] { *response = manager_.curve(request->job_id()); });
+}
+
+grpc::Status GelServiceImpl::QueryCurves(grpc::ServerContext* context, const gel::v1::QueryCurvesRequest* request,
+                                         gel::v1::QueryCurvesResponse* response) {
+  return guarded(context, "QueryCurves", [&] { *response = manager_.query(*request); });
+}
+
+grpc::Status GelServiceImpl::GetLogs(grpc::ServerContext* context, const gel::v1::GetLogsRequest* request,
+                                     gel::v1::GetLogsResponse* response) {
+  return guarded(context, "GetLogs", [&] { *response = manager_.logs(*request); });
+}
+
+bool is_loopback_address(const std::string& host_port) {
+  std::string host = host_port;
+  if (!host.empty() && host.front() == '[') {
+    auto close = host.find(']');
+    host = host.substr(1, close == std::string::npos ? std::string::npos : close - 1);
+  } else if (auto colon = host.rfind(':'); colon != std::string::npos && host.find(':') == colon) {
+    host = host.substr(0, colon);
+  }
+  if (host == "localhost" || host == "::1") return true;
+  in_addr v4{};
+  if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  return false;
+}
+
+Daemon::Daemon(DaemonOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor)
+    : options_(std::move(options)) {
+  manager_ = std::make_unique<JobManager>(options_.manager, std::move(engine), std::move(executor));
+}
+
+Daemon::~Daemon() { shutdown(); }
+
+std::string Daemon::address() const {
+  auto colon = options_.listen.rfind(':');
+  return options_.listen.substr(0, colon) + ":" + std::to_string(port_);
+}
+
+void Daemon::start() {
+  if (!is_loopback_address(options_.listen) && options_.token.empty()) {
+    throw std::invalid_argument("listen: " + options_.listen +
+                                " is not a loopback address; give --token-file to open it to other machines");
+  }
+  manager_->start();
+  auto auth = std::make_shared<const TokenCheck>(options_.token);
+  service_ = std::make_unique<GelServiceImpl>(*manager_, auth);
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort(options_.listen, grpc::InsecureServerCredentials(), &port_);
+  builder.RegisterService(service_.get());
+  if (!options_.token.empty()) {
+    std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+    interceptors.push_back(std::make_unique<TokenInterceptorFactory>(options_.token));
+    builder.experimental().SetInterceptorCreators(std::move(interceptors));
+  }
+  server_ = builder.BuildAndStart();
+  if (!server_ || port_ == 0) {
+    manager_->shutdown();
+    throw std::runtime_error("listen: cannot listen on " + options_.listen);
+  }
+  if (auto* health = server_->GetHealthCheckService()) {
+    health->SetServingStatus(true);
+    health->SetServingStatus("gel.v1.GelService", true);
+  }
+  spdlog::info("geld listening on {}{}", address(), options_.token.empty() ? "" : " (bearer token required)");
+}
+
+void Daemon::shutdown() {
+  if (stopped_) return;
+  stopped_ = true;
+  if (server_) {
+    if (auto* health = server_->GetHealthCheckService()) health->SetServingStatus(false);
+  }
+  // Stop taking work and checkpoint the running jobs; the server keeps answering reads (and
+  // UNAVAILABLE for submissions and watches) meanwhile.
+  manager_->shutdown();
+  if (server_) {
+    server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+    server_->Wait();
+  }
+  spdlog::info("geld stopped");
+}
+
+}  // namespace geld

@@ -1,0 +1,91 @@
+#pragma once
+// The gRPC face of geld: GelService (a thin layer over JobManager, like gRPC's route_guide),
+// the standard health service, server reflection (grpc.reflection.v1alpha) and, in remote mode,
+// a bearer token on every call. Daemon owns the server and the manager; geld's main() and the
+// service tests both start it.
+#include <memory>
+#include <string>
+
+#include <grpcpp/grpcpp.h>
+
+#include "executor.hpp"
+#include "gel/v1/service.grpc.pb.h"
+#include "job_manager.hpp"
+
+namespace geld {
+
+// "authorization: Bearer <token>" on every call; an empty token accepts every call.
+class TokenCheck {
+ public:
+  explicit TokenCheck(std::string token) : token_(std::move(token)) {}
+  bool required() const { return !token_.empty(); }
+  // OK, or UNAUTHENTICATED saying what is missing.
+  grpc::Status check(const grpc::ServerContextBase& context) const;
+
+ private:
+  std::string token_;
+};
+
+class GelServiceImpl final : public gel::v1::GelService::Service {
+ public:
+  GelServiceImpl(JobManager& manager, std::shared_ptr<const TokenCheck> auth)
+      : manager_(manager), auth_(std::move(auth)) {}
+
+  grpc::Status SubmitJob(grpc::ServerContext* context, const gel::v1::SubmitJobRequest* request,
+                         gel::v1::SubmitJobResponse* response) override;
+  grpc::Status WatchJob(grpc::ServerContext* context, const gel::v1::WatchJobRequest* request,
+                        grpc::ServerWriter<gel::v1::JobUpdate>* writer) override;
+  grpc::Status CancelJob(grpc::ServerContext* context, const gel::v1::CancelJobRequest* request,
+                         gel::v1::Job* response) override;
+  grpc::Status GetJob(grpc::ServerContext* context, const gel::v1::GetJobRequest* request,
+                      gel::v1::Job* response) override;
+  grpc::Status ListJobs(grpc::ServerContext* context, const gel::v1::ListJobsRequest* request,
+                        gel::v1::ListJobsResponse* response) override;
+  grpc::Status GetCurve(grpc::ServerContext* context, const gel::v1::GetCurveRequest* request,
+                        gel::v1::GetCurveResponse* response) override;
+  grpc::Status QueryCurves(grpc::ServerContext* context, const gel::v1::QueryCurvesRequest* request,
+                           gel::v1::QueryCurvesResponse* response) override;
+  grpc::Status GetLogs(grpc::ServerContext* context, const gel::v1::GetLogsRequest* request,
+                       gel::v1::GetLogsResponse* response) override;
+
+ private:
+  template <class F>
+  grpc::Status guarded(grpc::ServerContext* context, const char* method, F&& body);
+
+  JobManager& manager_;
+  std::shared_ptr<const TokenCheck> auth_;
+};
+
+struct DaemonOptions {
+  std::string listen = "127.0.0.1:0";  // host:port; port 0 picks a free one
+  std::string token;                   // required on every call when not empty
+  ManagerOptions manager;
+};
+
+// True for 127.0.0.0/8, ::1 and localhost (with or without a port).
+bool is_loopback_address(const std::string& host_port);
+
+class Daemon {
+ public:
+  Daemon(DaemonOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor);
+  ~Daemon();
+
+  // Opens the store, recovers jobs, starts the workers and the server. Throws on failure
+  // (e.g. the address cannot be bound).
+  void start();
+  int port() const { return port_; }
+  std::string address() const;  // host:port actually bound
+  // Stops taking work (UNAVAILABLE), checkpoints running jobs, stops the server. Idempotent.
+  void shutdown();
+  JobManager& manager() { return *manager_; }
+
+ private:
+  DaemonOptions options_;
+  std::unique_ptr<JobManager> manager_;
+  std::unique_ptr<GelServiceImpl> service_;
+  std::unique_ptr<grpc::Server> server_;
+  int port_ = 0;
+  bool stopped_ = false;
+};
+
+}  // namespace geld
