@@ -1,0 +1,365 @@
+// Structure analyses, fits, regimes and ensembles (README "Analysis and pictures"), each checked
+// against a result known in closed form: the lens area of two disks, a pixel-exact lattice, the
+// two-point function of a Boolean model of disks, uncorrelated pixels, synthetic power laws,
+// planted regime boundaries.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <vector>
+
+#include "gel/analysis/correlation.hpp"
+#include "gel/analysis/curve_analysis.hpp"
+#include "gel/analysis/density_field.hpp"
+#include "gel/analysis/fits.hpp"
+#include "gel/analysis/fluctuation.hpp"
+#include "gel/configuration.hpp"
+#include "gel/errors.hpp"
+#include "gel/generator.hpp"
+
+namespace gel::analysis {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Overlap area of two unit disks whose centres are d apart.
+double lens_area(double d) {
+  if (d >= 2) return 0.0;
+  return 2 * std::acos(d / 2) - 0.5 * d * std::sqrt(4 - d * d);
+}
+
+Configuration periodic_box(double lx, double ly) {
+  Configuration c;
+  c.lx = lx;
+  c.ly = ly;
+  c.periodic_y = true;
+  return c;
+}
+
+// Value of C in the bin nearest to r.
+double c_at(const Correlation& corr, double r) {
+  std::size_t best = 0;
+  for (std::size_t i = 0; i < corr.r.size(); ++i)
+    if (std::abs(corr.r[i] - r) < std::abs(corr.r[best] - r)) best = i;
+  return corr.c[best];
+}
+
+Configuration quick_gel(std::uint64_t seed) {
+  gel::v1::Generator g;
+  g.set_preset("quick");
+  g.set_seed(seed);
+  return generate_gel(g);
+}
+
+TEST(Correlation, SingleDiskIsTheLensArea) {
+  // <rho(p) rho(p + d)> = lens(|d|) / A for one disk, so C(r) <rho>^2 A = lens(r).
+  Configuration c = periodic_box(24, 24);
+  c.add_particle(11.3, 12.6);  // off the pixel grid on purpose
+  const DensityField field = pixelise(c, 0.125);
+  EXPECT_NEAR(field.mean() * 24 * 24, kPi, 0.02);  // pixelised area of the disk
+  const Correlation corr = density_correlation(field);
+  const double scale = field.mean() * field.mean() * 24 * 24;
+  EXPECT_NEAR(corr.c[0] * field.mean(), 1.0, 1e-12);  // C(0) = 1 / <rho>
+  for (std::size_t i = 0; i < corr.r.size(); ++i) {
+    SCOPED_TRACE(corr.r[i]);
+    EXPECT_NEAR(corr.c[i] * scale, lens_area(corr.r[i]), 0.03);
+  }
+}
+
+TEST(Correlation, PixelExactLatticeRepeatsAtLatticeVectors) {
+  // Square lattice of spacing 4 a = 16 pixels: the field is exactly periodic on the lattice, so
+  // C(R) = C(0) = 1/<rho> at every lattice vector, and C = 0 where no disk meets a shifted one.
+  Configuration c = periodic_box(40, 40);
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j) c.add_particle(2 + 4 * i, 2 + 4 * j);
+  const DensityField field = pixelise(c, 0.25);
+  const CorrelationMap map = correlation_map(field);
+  const double c0 = map.at(0, 0);
+  EXPECT_DOUBLE_EQ(c0, 1.0 / field.mean());
+  EXPECT_DOUBLE_EQ(map.at(16, 0), c0);
+  EXPECT_DOUBLE_EQ(map.at(0, 16), c0);
+  EXPECT_DOUBLE_EQ(map.at(-16, 32), c0);
+  EXPECT_DOUBLE_EQ(map.at(8, 8), 0.0);  // shift (2a, 2a): nearest centres 2.83 a apart
+  // Sum over all shifts of the products is (sum rho)^2: the mean of C over shifts is 1.
+  double sum = 0;
+  for (double v : map.products) sum += v;
+  const double solid = field.mean() * field.nx * field.ny;
+  EXPECT_NEAR(sum, solid * solid, 1e-6 * solid * solid);
+  // Radial average at the nearest-neighbour distance: the bin at r = 4 a holds the four lattice
+  // shifts and a ring of others, so it lies strictly between 0 and C(0).
+  const Correlation corr = radial_average(map);
+  EXPECT_GT(c_at(corr, 4.0), 1.0);
+  EXPECT_LT(c_at(corr, 4.0), c0);
+}
+
+TEST(Correlation, BooleanModelOfDisksMatchesItsTwoPointFunction) {
+  // Disks at Poisson positions, overlaps allowed (a uniform ideal gas): a point is empty with
+  // probability q = exp(-lambda pi), two points d apart are both empty with probability
+  // exp(-lambda (2 pi - lens(d))), hence
+  //   C(d) = (1 - 2 q + q^2 exp(lambda lens(d))) / (1 - q)^2, and C = 1 beyond 2a.
+  const double L = 160, p = 0.25;
+  const double lambda = -std::log(1 - p) / kPi;
+  Configuration c = periodic_box(L, L);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0, L);
+  const int n = static_cast<int>(std::lround(lambda * L * L));
+  for (int i = 0; i < n; ++i) c.add_particle(u(rng), u(rng));
+  const Correlation corr = density_correlation(pixelise(c, 0.25));
+  const double q = std::exp(-lambda * kPi);
+  for (std::size_t i = 1; i < corr.r.size() && corr.r[i] < 8; ++i) {
+    const double d = corr.r[i];
+    const double expected = (1 - 2 * q + q * q * std::exp(lambda * lens_area(d))) / ((1 - q) * (1 - q));
+    SCOPED_TRACE(d);
+    EXPECT_NEAR(corr.c[i], expected, 0.05 * expected);
+  }
+}
+
+DensityField random_pixels(int nx, int ny, double fill, bool periodic_y, std::uint64_t seed) {
+  DensityField f;
+  f.nx = nx, f.ny = ny, f.hx = f.hy = 0.25, f.periodic_y = periodic_y;
+  std::mt19937_64 rng(seed);
+  std::bernoulli_distribution solid(fill);
+  for (int i = 0; i < nx * ny; ++i) f.rho.push_back(solid(rng) ? 1 : 0);
+  return f;
+}
+
+TEST(Correlation, UncorrelatedPixelsGiveOneAlsoBetweenWalls) {
+  // Between walls the pairs per vertical shift shrink as ny - |dy|; dividing by that count
+  // leaves no bias, so C stays 1 out to the largest shift (a bias would show up as a trend).
+  for (bool periodic : {true, false}) {
+    SCOPED_TRACE(periodic ? "periodic" : "walls");
+    const DensityField f = random_pixels(400, 300, 0.3, periodic, 11);
+    const Correlation corr = density_correlation(f);
+    EXPECT_NEAR(corr.c[0], 1 / f.mean(), 1e-12);
+    for (std::size_t i = 1; i < corr.r.size(); ++i) EXPECT_NEAR(corr.c[i], 1.0, 0.03) << corr.r[i];
+    // A structureless field is space-filling: D_f = 2.
+    const DfProfile df = fractal_dimension_profile(corr.r, corr.c);
+    for (std::size_t i = 0; i < df.r.size(); ++i) {
+      if (df.r[i] > 5) EXPECT_NEAR(df.df[i], 2.0, 0.1) << df.r[i];
+    }
+  }
+}
+
+TEST(Correlation, PixelSizeChangesCOnlyBelowAParticleDiameter) {
+  // The default pixel (a/4) against one twice as fine on the same gel: beyond r = 2a the radial
+  // C(r) agrees within 3 %, and so does the fitted D_f within 0.03.
+  const Configuration gel = quick_gel(3);
+  const Correlation coarse = density_correlation(pixelise(gel, kDefaultPixel));
+  const Correlation fine = density_correlation(pixelise(gel, kDefaultPixel / 2), {kDefaultPixel, 0});
+  ASSERT_EQ(coarse.r.size(), fine.r.size());
+  for (std::size_t i = 0; i < coarse.r.size(); ++i) {
+    if (coarse.r[i] >= 2 && coarse.r[i] <= 20) EXPECT_NEAR(fine.c[i] / coarse.c[i], 1.0, 0.03) << coarse.r[i];
+  }
+  const DfFit a = fit_fractal_dimension(coarse.r, coarse.c);
+  const DfFit b = fit_fractal_dimension(fine.r, fine.c);
+  EXPECT_NEAR(a.df, b.df, 0.03);
+  EXPECT_GT(a.df, 1.3);
+  EXPECT_LT(a.df, 1.9);
+}
+
+TEST(FractalDimension, PowerLawCorrelationReturnsItsExponent) {
+  std::vector<double> r, c;
+  for (double x = 1; x < 60; x += 0.25) r.push_back(x), c.push_back(3.0 * std::pow(x, -(2 - 1.6)));
+  const DfProfile df = fractal_dimension_profile(r, c);
+  ASSERT_GT(df.r.size(), 100u);
+  for (double v : df.df) EXPECT_NEAR(v, 1.6, 1e-10);
+  const DfFit fit = fit_fractal_dimension(r, c, 2, 10);
+  EXPECT_NEAR(fit.df, 1.6, 1e-12);
+  EXPECT_LT(fit.stderr_, 1e-10);
+  EXPECT_EQ(fit.points, 33);
+  EXPECT_THROW(fit_fractal_dimension(r, c, 10, 2), InvalidArgument);
+  EXPECT_THROW(fit_fractal_dimension(r, c, 100, 200), InvalidArgument);
+}
+
+TEST(Fluctuation, XiOfAGasIsSmallAndOfAClusteredConfigurationLarger) {
+  // Same packing fraction: a uniform gas of disks and the same number of disks packed into
+  // compact clumps of 40. The clumps fluctuate on the clump scale.
+  const double L = 120;
+  const int n = 550;  // phi ~ 0.12
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0, L);
+  Configuration gas = periodic_box(L, L), clumps = periodic_box(L, L);
+  for (int i = 0; i < n; ++i) gas.add_particle(u(rng), u(rng));
+  for (int placed = 0; placed < n;) {
+    const double cx = u(rng), cy = u(rng);
+    for (int i = -3; i <= 3 && placed < n; ++i)
+      for (int j = -3; j <= 3 && placed < n; ++j)
+        if (i * i + j * j <= 12) clumps.add_particle(cx + 2 * i, cy + 2 * j), ++placed;
+  }
+  const auto xi_gas = correlation_length(density_fluctuation(pixelise(gas)));
+  const auto xi_clumps = correlation_length(density_fluctuation(pixelise(clumps)));
+  ASSERT_TRUE(xi_gas.has_value());
+  ASSERT_TRUE(xi_clumps.has_value());
+  std::printf("xi gas %.2f a, clumps %.2f a\n", *xi_gas, *xi_clumps);
+  EXPECT_LT(*xi_gas, 12.0);
+  EXPECT_GT(*xi_clumps, 2 * *xi_gas);
+}
+
+TEST(Fluctuation, XiIsMissingWhenTheRatioNeverCrossesHalf) {
+  // A full field has no fluctuation at all (below 0.5 from the start); a half-filled box
+  // split in two halves has boxes that are all full or all empty (ratio 1 at every size).
+  // Box sides 1, 2, 4, ... a (4, 8, 16, ... pixels) all divide the half width of 128 pixels.
+  DensityField full;
+  full.nx = full.ny = 256, full.hx = full.hy = 0.25, full.periodic_y = true;
+  full.rho.assign(256 * 256, 1);
+  EXPECT_FALSE(correlation_length(density_fluctuation(full)).has_value());
+  DensityField halves = full;
+  for (int iy = 0; iy < 256; ++iy)
+    for (int ix = 128; ix < 256; ++ix) halves.rho[iy * 256 + ix] = 0;
+  const DensityFluctuation f = density_fluctuation(halves, {1.0, 0, 2.0});
+  EXPECT_EQ(f.l.size(), 6u);
+  ASSERT_FALSE(f.ratio.empty());
+  for (double v : f.ratio) EXPECT_NEAR(v, 1.0, 1e-12);
+  EXPECT_FALSE(correlation_length(f).has_value());
+  // An interpolated crossing lies between the bracketing sizes.
+  DensityFluctuation synthetic{{1, 2, 4}, {2.0, 1.0, 0.25}, {100, 25, 4}};
+  EXPECT_NEAR(*correlation_length(synthetic), 2 * std::sqrt(2.0), 1e-12);
+}
+
+TEST(Profile, DiskSlicesAreExactAndPeriodicImagesCount) {
+  Configuration c = periodic_box(20, 20);
+  for (int i = 0; i < 10; ++i) c.add_particle(1 + 2 * i, 5.0);  // a row on the line y = 5
+  c.add_particle(3, 0.0);                                       // half of it across y = 0
+  const PackingProfile p = packing_profile(c, 20);
+  ASSERT_EQ(p.phi.size(), 20u);
+  const double half_disk_in_unit_slice = kPi / 2;  // slice [5, 6] holds half of each disk
+  EXPECT_NEAR(p.phi[4], 10 * half_disk_in_unit_slice / 20, 1e-12);
+  EXPECT_NEAR(p.phi[5], 10 * half_disk_in_unit_slice / 20, 1e-12);
+  EXPECT_NEAR(p.phi[0], half_disk_in_unit_slice / 20, 1e-12);
+  EXPECT_NEAR(p.phi[19], half_disk_in_unit_slice / 20, 1e-12);
+  double total = 0;
+  for (double v : p.phi) total += v * 20 * p.slice;
+  EXPECT_NEAR(total, 11 * kPi, 1e-9);
+}
+
+TEST(Fits, PowerLawRecoversExactAndNoisyExponentsWithHonestErrors) {
+  std::vector<double> phi, p;
+  for (int k = 0; k < 15; ++k) phi.push_back(0.12 * std::pow(1.1, k)), p.push_back(0.7 * std::pow(phi.back(), 3.4));
+  const PowerLawFit exact = fit_power_law(phi, p, 0, 1);
+  EXPECT_NEAR(exact.exponent, 3.4, 1e-12);
+  EXPECT_NEAR(exact.prefactor, 0.7, 1e-12);
+  EXPECT_EQ(exact.points, 15);
+  // 400 noisy data sets (5 % log-normal scatter): the spread of the estimates matches the
+  // reported standard error, and the mean is unbiased.
+  std::mt19937_64 rng(1);
+  std::normal_distribution<double> noise(0, 0.05);
+  double sum = 0, sum2 = 0, reported = 0;
+  const int trials = 400;
+  for (int t = 0; t < trials; ++t) {
+    std::vector<double> noisy = p;
+    for (double& v : noisy) v *= std::exp(noise(rng));
+    const PowerLawFit f = fit_power_law(phi, noisy, 0, 1);
+    sum += f.exponent, sum2 += f.exponent * f.exponent, reported += f.exponent_stderr;
+  }
+  const double mean = sum / trials, spread = std::sqrt(sum2 / trials - mean * mean);
+  EXPECT_NEAR(mean, 3.4, 3 * spread / std::sqrt(trials));
+  EXPECT_NEAR(reported / trials / spread, 1.0, 0.15);
+  // The range selects points.
+  EXPECT_EQ(fit_power_law(phi, p, 0.2, 0.4).points, 7);  // k = 6 .. 12
+  EXPECT_THROW(fit_power_law(phi, p, 0.9, 1.0), InvalidArgument);
+}
+
+TEST(Fits, GelPointFitRecoversPhiGAndExponent) {
+  std::vector<double> phi, p;
+  for (int k = 0; k < 16; ++k) phi.push_back(0.10 * std::pow(1.12, k)), p.push_back(2.0 * std::pow(phi.back() - 0.07, 2.5));
+  const GelPointFit exact = fit_gel_point(phi, p, 0, 1);
+  EXPECT_TRUE(exact.converged);
+  EXPECT_NEAR(exact.phi_g, 0.07, 1e-6);
+  EXPECT_NEAR(exact.exponent, 2.5, 1e-5);
+  EXPECT_NEAR(exact.prefactor, 2.0, 1e-4);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0, 0.02);
+  std::vector<double> noisy = p;
+  for (double& v : noisy) v *= std::exp(noise(rng));
+  const GelPointFit f = fit_gel_point(phi, noisy, 0, 1);
+  EXPECT_LT(std::abs(f.phi_g - 0.07), std::max(3 * f.phi_g_stderr, 0.003));
+  EXPECT_LT(std::abs(f.exponent - 2.5), std::max(3 * f.exponent_stderr, 0.05));
+  EXPECT_GT(f.phi_g_stderr, 0);
+  EXPECT_LT(f.phi_g, phi[0]);
+}
+
+// A curve with planted regimes: intervals 0-4 store more than they dissipate, 5-9 dissipate by
+// rolling only, 10-14 break and slide too; interval 7 carries a stray burst of sliding.
+gel::v1::Curve planted_curve() {
+  gel::v1::Curve curve;
+  curve.set_particles(1000);
+  double stored = 0, dissipated = 0;
+  long normal = 0, sliding = 0, rolling = 0;
+  for (int k = 0; k <= 15; ++k) {
+    if (k > 0) {
+      const int i = k - 1;
+      if (i < 5) stored += 10, dissipated += 1, rolling += 2;
+      else if (i < 10) stored += 1, dissipated += 10, rolling += 50, sliding += (i == 7 ? 10 : 0);
+      else stored += 1, dissipated += 30, rolling += 50, sliding += 20, normal += 10;
+    }
+    auto* row = curve.add_rows();
+    row->set_k(k);
+    row->set_phi(0.12 * std::pow(1.1, k));
+    row->set_target_phi(row->phi());
+    row->set_p(std::pow(row->phi(), 3));
+    row->set_stored_energy(stored);
+    row->set_dissipated_energy(dissipated);
+    row->mutable_ruptures()->set_normal(normal);
+    row->mutable_ruptures()->set_sliding(sliding);
+    row->mutable_ruptures()->set_rolling(rolling);
+  }
+  return curve;
+}
+
+TEST(Regimes, PlantedBoundariesAreFound) {
+  const gel::v1::Curve curve = planted_curve();
+  const auto increments = curve_increments(curve);
+  ASSERT_EQ(increments.size(), 15u);
+  EXPECT_NEAR(increments[12].gamma_normal, 10 / (1000 * std::log(1.1)), 1e-12);
+  EXPECT_NEAR(increments[12].gamma_rolling, 50 / (1000 * std::log(1.1)), 1e-12);
+  EXPECT_NEAR(increments[0].stored_rate, 10 / std::log(1.1), 1e-9);
+  const RegimeSplit split = split_regimes(increments);
+  EXPECT_EQ(split.label[7], Regime::kMultiModePlastic);  // the stray burst
+  EXPECT_EQ(split.disagreements, 1);
+  ASSERT_TRUE(split.single_mode_start_phi && split.multi_mode_start_phi);
+  EXPECT_NEAR(*split.single_mode_start_phi, curve.rows(5).phi(), 1e-12);
+  EXPECT_NEAR(*split.multi_mode_start_phi, curve.rows(10).phi(), 1e-12);
+  // A purely elastic curve has no boundary.
+  gel::v1::Curve elastic = curve;
+  while (elastic.rows_size() > 5) elastic.mutable_rows()->RemoveLast();
+  const RegimeSplit none = split_regimes(curve_increments(elastic));
+  EXPECT_FALSE(none.single_mode_start_phi.has_value());
+  EXPECT_FALSE(none.multi_mode_start_phi.has_value());
+  EXPECT_FALSE(none.range[1].has_value());
+}
+
+TEST(Ensemble, MeanAndStdOfTwoKnownCurves) {
+  gel::v1::Curve a = planted_curve(), b = planted_curve();
+  for (int k = 0; k < b.rows_size(); ++k) {
+    a.mutable_rows(k)->set_p(1.0 + k);
+    b.mutable_rows(k)->set_p(3.0 + k);
+    a.mutable_rows(k)->add_phi_profile(0.1), a.mutable_rows(k)->add_phi_profile(0.2);
+    b.mutable_rows(k)->add_phi_profile(0.3), b.mutable_rows(k)->add_phi_profile(0.2);
+  }
+  b.mutable_rows()->RemoveLast();  // members of unequal length: the shorter one sets the rows
+  const CurveEnsemble e = curve_ensemble({a, b});
+  EXPECT_EQ(e.members, 2);
+  const MeanStd& p = e.rows.at("P");
+  ASSERT_EQ(p.mean.size(), 15u);
+  for (int k = 0; k < 15; ++k) {
+    EXPECT_DOUBLE_EQ(p.mean[k], 2.0 + k);
+    EXPECT_NEAR(p.std[k], std::sqrt(2.0), 1e-12);
+  }
+  EXPECT_NEAR(e.phi_profile[3].mean[0], 0.2, 1e-12);
+  EXPECT_NEAR(e.phi_profile[3].std[0], std::sqrt(0.02), 1e-12);
+  EXPECT_NEAR(e.phi_profile[3].std[1], 0.0, 1e-12);
+  EXPECT_EQ(e.intervals.at("gamma_rolling").mean.size(), 14u);
+  const OptionalMeanStd xi = mean_std(std::vector<std::optional<double>>{4.0, std::nullopt, 6.0});
+  EXPECT_EQ(xi.missing, 1);
+  EXPECT_DOUBLE_EQ(*xi.mean, 5.0);
+  EXPECT_NEAR(*xi.std, std::sqrt(2.0), 1e-12);
+  gel::v1::Curve other = planted_curve();
+  other.mutable_rows(2)->set_target_phi(0.5);
+  EXPECT_THROW(curve_ensemble({a, other}), InvalidArgument);
+}
+
+}  // namespace
+}  // namespace gel::analysis
