@@ -7,7 +7,8 @@
 //                        "ruptures": {"normal", "sliding", "rolling"}, "bonds_created",
 //                        "equilibrated", "steps", "sim_time", "wall_seconds", "drag_energy",
 //                        "wall_work", "kinetic_energy", "phi_profile": [...], "snapshot"}]}
-// curve.csv: one row per equilibrium, the header names every column with its unit.
+// curve.csv: one row per equilibrium, the header names every column with its unit
+// ("name [unit]"; the profile is in profiles.csv). read_curve reads curve.json.
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -21,8 +22,10 @@ gel::v1::CurveRow curve_row_from_json(const nlohmann::json& row);
 nlohmann::json curve_to_json(const gel::v1::Curve& curve);
 gel::v1::Curve curve_from_json(const nlohmann::json& json);  // throws InvalidArgument
 std::string curve_to_csv(const gel::v1::Curve& curve);
+// profiles.csv: "k,phi [1],slice_0 [1],..." one row per equilibrium, slices bottom to top.
+std::string profiles_to_csv(const gel::v1::Curve& curve);
 
-// DIR/curve.json, atomically.
+// DIR/curve.json, DIR/curve.csv and DIR/profiles.csv, each atomically.
 void write_curve(const gel::v1::Curve& curve, const std::string& dir);
 gel::v1::Curve read_curve(const std::string& dir);  // reads DIR/curve.json
 

@@ -1,0 +1,239 @@
+// gelsim compress: stepwise uniaxial compression of a fractal gel (README "Compression").
+//   gelsim compress --preset quick
+//   gelsim compress --preset paper-bond1 --seed 1 --fidelity default --out runs/b1 --progress-file runs/b1/progress.jsonl
+//   gelsim compress --resume runs/b1
+// Progress goes to stderr (a bar on a terminal, plain lines otherwise), the curve to stdout.
+// Exit codes: 0 done, 2 invalid input, 3 numerical instability, 4 stopped by a signal
+// (checkpointed: resume with --resume DIR).
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "command.hpp"
+#include "gel/compression.hpp"
+#include "gel/configuration.hpp"
+#include "gel/curve_io.hpp"
+#include "gel/errors.hpp"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+extern "C" void request_stop(int) { g_stop.store(true); }
+
+struct CompressArgs {
+  std::string preset;
+  std::string scene_file;
+  std::string config_file;
+  std::string bond;
+  std::optional<std::uint64_t> seed;
+  std::string fidelity;
+  std::string out;
+  std::optional<std::string> resume;
+  std::string progress_file;
+  double progress_interval = 1.0;
+  bool json = false;
+  bool no_snapshots = false;
+  // Protocol and integration overrides (0 / unset: preset or default).
+  double phi_max = 0, w0 = 0, v_wall = 0, v_wall_v0 = 0, a = 0, b = 0, max_wait_time = 0, stress_floor = 0;
+  double dt = 0, dt_fraction = 0, checkpoint_seconds = 0;
+  std::optional<double> eta_factor;
+  int steps = 0, profile_slices = 0;
+  std::int64_t m_exam = 0;
+  std::optional<bool> shortcut;
+};
+
+gel::v1::Scene build_scene(const CompressArgs& args) {
+  gel::v1::Scene scene;
+  if (!args.scene_file.empty()) scene = gel::scene_from_json(gel::read_file(args.scene_file));
+  if (!args.preset.empty()) scene.set_preset(args.preset);
+  if (scene.preset().empty() && args.scene_file.empty() && args.config_file.empty()) scene.set_preset("quick");
+  if (!args.bond.empty()) scene.mutable_bond()->set_preset(args.bond);
+  if (args.seed) scene.mutable_generator()->set_seed(*args.seed);
+  gel::v1::Compression* c = scene.mutable_compression();
+  if (!args.fidelity.empty()) c->set_fidelity(args.fidelity);
+  if (args.phi_max != 0) c->set_phi_max(args.phi_max);
+  if (args.w0 != 0) c->set_w0(args.w0);
+  if (args.steps != 0) c->set_steps(args.steps);
+  if (args.v_wall != 0) c->set_v_wall(args.v_wall);
+  if (args.v_wall_v0 != 0) c->set_v_wall_v0(args.v_wall_v0);
+  if (args.m_exam != 0) c->set_m_exam(args.m_exam);
+  if (args.a != 0) c->set_a_tolerance(args.a);
+  if (args.b != 0) c->set_b_tolerance(args.b);
+  if (args.max_wait_time != 0) c->set_max_wait_time(args.max_wait_time);
+  if (args.stress_floor != 0) c->set_stress_floor(args.stress_floor);
+  if (args.shortcut) c->set_approach_shortcut(*args.shortcut);
+  if (args.profile_slices != 0) c->set_profile_slices(args.profile_slices);
+  if (args.checkpoint_seconds != 0) c->set_checkpoint_seconds(args.checkpoint_seconds);
+  if (args.dt != 0) scene.mutable_integration()->set_dt(args.dt);
+  if (args.dt_fraction != 0) scene.mutable_integration()->set_dt_fraction(args.dt_fraction);
+  if (args.eta_factor) scene.mutable_integration()->set_eta_factor(*args.eta_factor);
+  return scene;
+}
+
+// One JSON object per line, flushed at once: a follower (the Slurm executor) reads whole lines.
+class ProgressFile {
+ public:
+  explicit ProgressFile(const std::string& path) {
+    if (path.empty()) return;
+    out_.open(path, std::ios::app);
+    if (!out_) throw gel::InvalidArgument("--progress-file", "cannot open '" + path + "' for appending");
+  }
+  void write(const nlohmann::json& line) {
+    if (!out_.is_open()) return;
+    out_ << line.dump() << '\n';
+    out_.flush();
+  }
+  bool open() const { return out_.is_open(); }
+
+ private:
+  std::ofstream out_;
+};
+
+nlohmann::json events_json(const gel::v1::Events& e) {
+  return {{"normal", e.normal()}, {"sliding", e.sliding()}, {"rolling", e.rolling()}, {"created", e.created()}};
+}
+
+nlohmann::json progress_json(const gel::v1::Progress& p) {
+  return {{"type", "progress"},     {"phase", p.phase()},
+          {"k", p.k()},             {"k_total", p.k_total()},
+          {"phi", p.phi()},         {"target_phi", p.target_phi()},
+          {"P", p.p()},             {"events", events_json(p.events())},
+          {"steps", p.steps()},     {"elapsed_seconds", p.elapsed_seconds()},
+          {"remaining_seconds", p.remaining_seconds()}};
+}
+
+std::string duration_text(double seconds) {
+  if (seconds < 0) return "?";
+  char buffer[32];
+  const long s = static_cast<long>(seconds);
+  std::snprintf(buffer, sizeof buffer, "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
+  return buffer;
+}
+
+std::string progress_text(const gel::v1::Progress& p) {
+  char buffer[256];
+  std::snprintf(buffer, sizeof buffer, "%-11s k %d/%d  phi %.4f -> %.4f  P %.3e  breaks %lld  resets %lld  elapsed %s  eta %s",
+                p.phase().c_str(), p.k(), p.k_total(), p.phi(), p.target_phi(), p.p(),
+                static_cast<long long>(p.events().normal()),
+                static_cast<long long>(p.events().sliding() + p.events().rolling()),
+                duration_text(p.elapsed_seconds()).c_str(), duration_text(p.remaining_seconds()).c_str());
+  return buffer;
+}
+
+void print_table(const gel::v1::Curve& curve) {
+  std::printf("%3s %9s %12s %12s %12s %7s %8s %8s %8s %8s %3s\n", "k", "phi", "P_y[P0]", "P_top", "P_bot", "z",
+              "normal", "sliding", "rolling", "created", "eq");
+  for (const auto& r : curve.rows())
+    std::printf("%3d %9.5f %12.5e %12.5e %12.5e %7.4f %8lld %8lld %8lld %8lld %3s\n", r.k(), r.phi(), r.p(), r.p_top(),
+                r.p_bot(), r.contact_number(), static_cast<long long>(r.ruptures().normal()),
+                static_cast<long long>(r.ruptures().sliding()), static_cast<long long>(r.ruptures().rolling()),
+                static_cast<long long>(r.ruptures().created()), r.equilibrated() ? "yes" : "no");
+  if (curve.rows_size() > 0)
+    std::printf("wall time %.2f s, %lld steps, %d particles\n", curve.rows(curve.rows_size() - 1).wall_seconds(),
+                static_cast<long long>(curve.rows(curve.rows_size() - 1).steps()), curve.particles());
+}
+
+int run_compress(const CompressArgs& args) {
+  ProgressFile progress_file(args.progress_file);
+  const bool terminal = isatty(STDERR_FILENO) != 0;
+  std::signal(SIGINT, request_stop);
+  std::signal(SIGTERM, request_stop);
+
+  gel::RunOptions options;
+  options.out_dir = args.resume ? (args.resume->empty() ? args.out : *args.resume) : args.out;
+  options.stop = &g_stop;
+  options.progress_interval_seconds = args.progress_interval;
+  options.write_snapshots = !args.no_snapshots;
+  options.on_progress = [&](const gel::v1::Progress& p) {
+    progress_file.write(progress_json(p));
+    if (terminal)
+      std::cerr << '\r' << progress_text(p) << "\033[K" << std::flush;
+    else
+      std::cerr << progress_text(p) << '\n';
+  };
+  options.on_row = [&](const gel::v1::CurveRow& row) {
+    nlohmann::json line = gel::curve_row_to_json(row);
+    line["type"] = "row";
+    progress_file.write(line);
+    if (terminal) std::cerr << '\r' << "\033[K";
+    std::cerr << "equilibrium k " << row.k() << ": phi " << row.phi() << "  P " << row.p()
+              << (row.equilibrated() ? "" : "  (NOT equilibrated: wait limit reached)") << '\n';
+  };
+
+  gel::CompressionResult result;
+  try {
+    if (args.resume) {
+      if (options.out_dir.empty()) throw gel::InvalidArgument("--resume", "needs a run directory (--resume DIR)");
+      result = gel::resume_compression(options);
+    } else {
+      std::optional<gel::Configuration> initial;
+      if (!args.config_file.empty()) initial = gel::read_configuration(args.config_file);
+      result = gel::run_compression(build_scene(args), options, initial ? &*initial : nullptr);
+    }
+  } catch (const gel::InvalidArgument& e) {
+    progress_file.write({{"type", "failed"}, {"kind", "invalid_argument"}, {"field", e.field()}, {"error", e.what()}});
+    throw;
+  } catch (const gel::StabilityError& e) {
+    progress_file.write({{"type", "failed"}, {"kind", "instability"}, {"error", e.what()}});
+    throw;
+  } catch (const std::exception& e) {
+    progress_file.write({{"type", "failed"}, {"kind", "error"}, {"error", e.what()}});
+    throw;
+  }
+  if (terminal) std::cerr << '\n';
+  if (result.stopped) {
+    progress_file.write({{"type", "stopped"}, {"out", options.out_dir}, {"rows", result.curve.rows_size()}});
+    std::cerr << "gelsim: stopped" << (options.out_dir.empty() ? "" : "; resume with --resume " + options.out_dir) << "\n";
+    return 4;
+  }
+  progress_file.write({{"type", "done"}, {"out", options.out_dir}, {"rows", result.curve.rows_size()}});
+  if (args.json)
+    std::cout << gel::curve_to_json(result.curve).dump() << "\n";
+  else
+    print_table(result.curve);
+  return 0;
+}
+
+gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of a fractal gel", [](CLI::App& sub) {
+  auto args = std::make_shared<CompressArgs>();
+  sub.add_option("--preset", args->preset, "scene preset: quick (default), paper-bond1, paper-bond2");
+  sub.add_option("--scene", args->scene_file, "scene JSON (gel.v1.Scene); options below override it");
+  sub.add_option("--config", args->config_file, "start from this configuration instead of generating a gel");
+  sub.add_option("--bond", args->bond, "bond preset: bond1, bond2");
+  sub.add_option("--seed", args->seed, "generator seed");
+  sub.add_option("--fidelity", args->fidelity, "fast, default or paper (MODEL.md reference values)");
+  sub.add_option("--out", args->out, "run directory: curve.json/csv, profiles.csv, snapshots/, checkpoint.bin");
+  sub.add_option("--resume", args->resume, "continue the run in DIR (default: --out) from its checkpoint")->expected(0, 1);
+  sub.add_option("--progress-file", args->progress_file, "append one JSON line per progress message and row");
+  sub.add_option("--progress-interval", args->progress_interval, "seconds between progress messages")->check(CLI::NonNegativeNumber);
+  sub.add_flag("--json", args->json, "print the curve as one JSON object (curve.json's format)");
+  sub.add_flag("--no-snapshots", args->no_snapshots, "write no configuration snapshots");
+  sub.add_option("--phi-max", args->phi_max, "last target packing fraction");
+  sub.add_option("--steps", args->steps, "k', the number of targets");
+  sub.add_option("--w0", args->w0, "phi_1 = w0 phi_0");
+  sub.add_option("--v-wall", args->v_wall, "wall speed, each wall [a/t0]");
+  sub.add_option("--v-wall-v0", args->v_wall_v0, "wall speed in units of v0 = a sqrt(k_R/m)");
+  sub.add_option("--m-exam", args->m_exam, "steps between equilibrium tests");
+  sub.add_option("--A", args->a, "tolerance of |P_top - P_bot|/P");
+  sub.add_option("--B", args->b, "tolerance of |P - P'|/P");
+  sub.add_option("--max-wait-time", args->max_wait_time, "longest wait for equilibrium per target [t0]");
+  sub.add_option("--stress-floor", args->stress_floor, "P below which a step is stress-free [F0/a^2]");
+  sub.add_option("--shortcut", args->shortcut, "approach shortcut until the network spans (true/false)");
+  sub.add_option("--profile-slices", args->profile_slices, "slices of the phi(y) profile");
+  sub.add_option("--checkpoint-seconds", args->checkpoint_seconds, "wall-clock seconds between checkpoints");
+  sub.add_option("--eta-factor", args->eta_factor, "viscosity in units of eta_cd (default 0.1)");
+  sub.add_option("--dt", args->dt, "time step [t0]");
+  sub.add_option("--dt-fraction", args->dt_fraction, "time step as a fraction of the shortest period");
+  return [args] { return run_compress(*args); };
+});
+
+}  // namespace

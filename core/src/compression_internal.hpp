@@ -1,0 +1,27 @@
+#pragma once
+// Shared between the compression source files: the resolved protocol parameters as plain
+// numbers (read once from the resolved scene, so the step loop never touches protobuf).
+#include <cstdint>
+
+#include "gel/v1/scene.pb.h"
+
+namespace gel {
+
+struct CompressionSettings {
+  double w0 = 0, phi_max = 0;
+  int steps = 0;
+  double v_wall = 0;              // each wall [a/t0]
+  std::int64_t m_exam = 0;
+  double a_tolerance = 0, b_tolerance = 0;
+  double max_wait_time = 0;       // [t0] per target
+  double stress_floor = 0;        // [P0]
+  double rest_speed = 0;          // [a/t0]
+  bool approach_shortcut = false;
+  int profile_slices = 0;
+  double checkpoint_seconds = 0;
+};
+
+// From a scene already passed through resolve_compression_scene.
+CompressionSettings compression_settings(const gel::v1::Scene& resolved);
+
+}  // namespace gel

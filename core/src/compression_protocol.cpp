@@ -1,0 +1,526 @@
+// Stepwise uniaxial compression (MODEL.md "Stepwise uniaxial compression"): the walls close
+// symmetrically at v_wall each until phi reaches the next target phi_k, stop, and the
+// equilibrium test runs every m_exam steps; at equilibrium (or when the wait limit is reached)
+// a curve row is recorded and compression resumes.
+//
+// The protocol is a small state machine (CompressionState) advanced in chunks of steps. Every
+// decision depends only on the engine state and the protocol state, never on the wall clock,
+// so a checkpoint taken between two chunks and resumed continues bit for bit: progress
+// reports, wall-clock checkpoints and stop requests only happen between chunks and do not
+// touch the physics.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "compression_internal.hpp"
+#include "gel/compression.hpp"
+#include "gel/curve_io.hpp"
+#include "gel/errors.hpp"
+#include "gel/generator.hpp"
+#include "gel/system.hpp"
+#include "gel/units.hpp"
+
+namespace gel {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Steps between two looks at the stop flag, the clock and the phase logic. Small against any
+// protocol time scale, large against the cost of a clock read.
+constexpr std::int64_t kChunkSteps = 128;
+
+constexpr char kCheckpointFile[] = "checkpoint.bin";
+constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '1'};
+
+enum Phase : std::int32_t { kMoving = 0, kWaiting = 1, kDone = 2 };
+
+// Everything besides the engine and the curve that the protocol needs to continue.
+struct CompressionState {
+  double phi0 = 0;                      // packing fraction at the start (row 0)
+  std::int32_t k = 1;                   // current target, 1..k'
+  std::int32_t phase = kMoving;
+  std::int64_t next_exam_step = 0;      // engine step of the next equilibrium test
+  double wait_start_time = 0;           // simulated time when the walls stopped
+  double previous_p = 0;                // P' (P at the previous test, or at the stop)
+  std::int64_t breaks_at_previous = 0;  // normal breaks counted at the previous test
+  std::uint8_t spanned = 0;             // the network spans: no more approach shortcut
+  double wall_seconds_before = 0;       // wall-clock seconds of earlier sessions
+};
+
+// --- Binary checkpoint pieces (explicit field by field: no padding bytes on disk) ---------
+
+void put_bytes(std::string& out, const void* data, std::size_t size) {
+  out.append(static_cast<const char*>(data), size);
+}
+template <class T>
+void put(std::string& out, const T& value) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  put_bytes(out, &value, sizeof(T));
+}
+void put_block(std::string& out, const std::string& block) {
+  put(out, static_cast<std::uint64_t>(block.size()));
+  out += block;
+}
+
+class ByteReader {
+ public:
+  explicit ByteReader(const std::string& bytes) : bytes_(bytes) {}
+  template <class T>
+  T get() {
+    T value;
+    need(sizeof(T));
+    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return value;
+  }
+  std::string block() {
+    const auto size = get<std::uint64_t>();
+    need(size);
+    std::string out = bytes_.substr(pos_, size);
+    pos_ += size;
+    return out;
+  }
+  bool done() const { return pos_ == bytes_.size(); }
+
+ private:
+  void need(std::size_t size) const {
+    if (size > bytes_.size() - pos_) throw std::runtime_error("checkpoint is truncated");
+  }
+  const std::string& bytes_;
+  std::size_t pos_ = 0;
+};
+
+std::string encode_state(const CompressionState& s) {
+  std::string out;
+  put(out, s.phi0);
+  put(out, s.k);
+  put(out, s.phase);
+  put(out, s.next_exam_step);
+  put(out, s.wait_start_time);
+  put(out, s.previous_p);
+  put(out, s.breaks_at_previous);
+  put(out, s.spanned);
+  put(out, s.wall_seconds_before);
+  return out;
+}
+
+CompressionState decode_state(const std::string& bytes) {
+  ByteReader r(bytes);
+  CompressionState s;
+  s.phi0 = r.get<double>();
+  s.k = r.get<std::int32_t>();
+  s.phase = r.get<std::int32_t>();
+  s.next_exam_step = r.get<std::int64_t>();
+  s.wait_start_time = r.get<double>();
+  s.previous_p = r.get<double>();
+  s.breaks_at_previous = r.get<std::int64_t>();
+  s.spanned = r.get<std::uint8_t>();
+  s.wall_seconds_before = r.get<double>();
+  if (!r.done() || s.phase < kMoving || s.phase > kDone) throw std::runtime_error("checkpoint protocol state is invalid");
+  return s;
+}
+
+std::string checkpoint_path(const std::string& out_dir) {
+  return (std::filesystem::path(out_dir) / kCheckpointFile).string();
+}
+
+// --- Observables ---------------------------------------------------------------------------
+
+// Area of the unit disk below the line at height t from its centre (t clamped to [-1, 1]).
+double disk_area_below(double t) {
+  t = std::clamp(t / kRadius, -1.0, 1.0);
+  return kRadius * kRadius * (std::acos(-t) + t * std::sqrt(1.0 - t * t));
+}
+
+// Packing fraction in `slices` equal slices between the walls, bottom to top: the exact area
+// of each disk inside each slice, over the slice area.
+std::vector<double> phi_profile(const System& system, int slices) {
+  const double bottom = system.wall_bottom(), top = system.wall_top();
+  const double width = (top - bottom) / slices;
+  std::vector<double> area(static_cast<std::size_t>(slices), 0.0);
+  const auto& y = system.y();
+  for (std::size_t i = 0; i < system.size(); ++i) {
+    const int first = std::clamp(static_cast<int>(std::floor((y[i] - kRadius - bottom) / width)), 0, slices - 1);
+    const int last = std::clamp(static_cast<int>(std::floor((y[i] + kRadius - bottom) / width)), 0, slices - 1);
+    for (int s = first; s <= last; ++s) {
+      const double lower = s == 0 ? -std::numeric_limits<double>::infinity() : bottom + s * width;
+      const double upper = s == slices - 1 ? std::numeric_limits<double>::infinity() : bottom + (s + 1) * width;
+      area[s] += disk_area_below(upper - y[i]) - disk_area_below(lower - y[i]);
+    }
+  }
+  std::vector<double> phi(area.size());
+  for (std::size_t s = 0; s < area.size(); ++s) phi[s] = area[s] / (system.lx() * width);
+  return phi;
+}
+
+void require_finite_state(const char* what, double value) {
+  if (!std::isfinite(value))
+    throw StabilityError(std::string("compression: ") + what + " is not finite (" + std::to_string(value) + ")");
+}
+
+// --- Approach shortcut (MODEL.md: translate the group attached to one wall rigidly until the
+// network first spans) ------------------------------------------------------------------------
+
+// Particles connected through bonds to the top wall (the wall particles included).
+std::vector<char> top_wall_group(const System& system) {
+  const std::size_t n = system.size();
+  std::vector<std::vector<std::int32_t>> adjacency(n);
+  for (const Bond& bond : system.bonds()) {
+    adjacency[bond.i].push_back(bond.j);
+    adjacency[bond.j].push_back(bond.i);
+  }
+  std::vector<char> in_group(n, 0);
+  std::vector<std::int32_t> frontier;
+  for (std::size_t i = 0; i < n; ++i)
+    if (system.wall_side(i) == kTopWall) {
+      in_group[i] = 1;
+      frontier.push_back(static_cast<std::int32_t>(i));
+    }
+  while (!frontier.empty()) {
+    const std::int32_t i = frontier.back();
+    frontier.pop_back();
+    for (const std::int32_t j : adjacency[i])
+      if (!in_group[j]) {
+        in_group[j] = 1;
+        frontier.push_back(j);
+      }
+  }
+  return in_group;
+}
+
+bool group_touches_bottom_wall(const System& system, const std::vector<char>& group) {
+  for (std::size_t i = 0; i < system.size(); ++i)
+    if (group[i] && system.wall_side(i) == kBottomWall) return true;
+  return false;
+}
+
+// How far the top group can move down before one of its particles touches a particle outside
+// it or the bottom wall.
+double distance_to_first_contact(const System& system, const std::vector<char>& group) {
+  const auto& x = system.x();
+  const auto& y = system.y();
+  const double lx = system.lx();
+  double distance = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < system.size(); ++i) {
+    if (!group[i]) continue;
+    distance = std::min(distance, y[i] - kRadius - system.wall_bottom());
+    for (std::size_t j = 0; j < system.size(); ++j) {
+      if (group[j] || y[j] > y[i]) continue;
+      double dx = x[j] - x[i];
+      dx -= lx * std::round(dx / lx);
+      if (std::abs(dx) >= kDiameter) continue;
+      distance = std::min(distance, y[i] - y[j] - std::sqrt(kDiameter * kDiameter - dx * dx));
+    }
+  }
+  return std::max(distance, 0.0);
+}
+
+// --- The run -----------------------------------------------------------------------------------
+
+class CompressionRun {
+ public:
+  CompressionRun(System system, gel::v1::Curve curve, CompressionState state, const RunOptions& options)
+      : system_(std::move(system)),
+        curve_(std::move(curve)),
+        state_(state),
+        settings_(compression_settings(curve_.scene())),
+        options_(options),
+        targets_(compression_targets(state.phi0, settings_.w0, settings_.phi_max, settings_.steps)),
+        session_start_(Clock::now()),
+        last_progress_(session_start_),
+        last_checkpoint_(session_start_) {}
+
+  // A fresh run: records row 0 and writes its outputs.
+  void start() {
+    state_.next_exam_step = 0;
+    record_row(true, state_.phi0);
+  }
+
+  CompressionResult run() {
+    CompressionResult result;
+    while (state_.phase != kDone) {
+      if (options_.stop && options_.stop->load(std::memory_order_relaxed)) {
+        save_checkpoint();
+        result.stopped = true;
+        result.curve = curve_;
+        return result;
+      }
+      if (state_.phase == kMoving)
+        advance_moving();
+      else
+        advance_waiting();
+      between_chunks();
+    }
+    save_checkpoint();
+    if (options_.on_progress) options_.on_progress(progress("done"));
+    result.finished = true;
+    result.curve = curve_;
+    return result;
+  }
+
+ private:
+  double height_at(double phi) const {
+    return kPi * kRadius * kRadius * static_cast<double>(system_.size()) / (system_.lx() * phi);
+  }
+  double target_phi() const { return targets_[static_cast<std::size_t>(state_.k - 1)]; }
+
+  void set_walls(double v_each) {
+    if (system_.wall_velocity_bottom() != v_each || system_.wall_velocity_top() != -v_each)
+      system_.set_wall_velocities(v_each, -v_each);
+  }
+
+  void advance_moving() {
+    const double target_height = height_at(target_phi());
+    double gap = system_.wall_top() - system_.wall_bottom() - target_height;
+    if (settings_.approach_shortcut && !state_.spanned && system_.wall_velocity_top() == 0.0) {
+      // At the start of a target's compression only (walls at rest).
+      const std::vector<char> group = top_wall_group(system_);
+      if (group_touches_bottom_wall(system_, group)) {
+        state_.spanned = 1;
+      } else {
+        const double jump = std::min(distance_to_first_contact(system_, group), std::max(gap, 0.0));
+        system_.translate_wall_group(kTopWall, -jump);
+        gap -= jump;
+        if (gap <= 0.0) return begin_wait();
+      }
+    }
+    if (gap <= 0.0) return begin_wait();
+    const double dt = system_.params().dt;
+    const double per_step = 2.0 * settings_.v_wall * dt;
+    const double full_steps = std::floor(gap / per_step);
+    if (full_steps >= 2.0) {
+      set_walls(settings_.v_wall);
+      system_.run(std::min<std::int64_t>(kChunkSteps, static_cast<std::int64_t>(full_steps) - 1));
+      return;
+    }
+    // The last step closes exactly the remaining gap, so the walls stop at the target.
+    set_walls(0.5 * gap / dt);
+    system_.step();
+    begin_wait();
+  }
+
+  void begin_wait() {
+    set_walls(0.0);
+    state_.phase = kWaiting;
+    state_.wait_start_time = system_.time();
+    state_.previous_p = system_.wall_stress().p;
+    state_.breaks_at_previous = system_.events().normal;
+    state_.next_exam_step = system_.step_count() + settings_.m_exam;
+  }
+
+  void advance_waiting() {
+    const std::int64_t remaining = state_.next_exam_step - system_.step_count();
+    if (remaining > 0) system_.run(std::min(kChunkSteps, remaining));
+    if (system_.step_count() >= state_.next_exam_step) examine();
+  }
+
+  // MODEL.md's test: |P_top - P_bot|/P < A, |P - P'|/P < B, no bond broke since the previous
+  // test. Below the stress floor (P and P' both) the relative tests are meaningless: the step
+  // counts as equilibrated when no free particle moves faster than rest_speed and no bond broke.
+  bool at_equilibrium(const WallStress& stress) const {
+    const bool no_breaks = system_.events().normal == state_.breaks_at_previous;
+    if (!no_breaks) return false;
+    const double p = std::abs(stress.p);
+    if (p < settings_.stress_floor && std::abs(state_.previous_p) < settings_.stress_floor)
+      return system_.max_speed() < settings_.rest_speed;
+    return std::abs(stress.p_top - stress.p_bottom) < settings_.a_tolerance * p &&
+           std::abs(stress.p - state_.previous_p) < settings_.b_tolerance * p;
+  }
+
+  void examine() {
+    const WallStress stress = system_.wall_stress();
+    require_finite_state("P_top", stress.p_top);
+    require_finite_state("P_bot", stress.p_bottom);
+    if (at_equilibrium(stress)) return finish_target(true);
+    if (system_.time() - state_.wait_start_time >= settings_.max_wait_time) return finish_target(false);
+    state_.previous_p = stress.p;
+    state_.breaks_at_previous = system_.events().normal;
+    state_.next_exam_step += settings_.m_exam;
+  }
+
+  void finish_target(bool equilibrated) {
+    const double target = target_phi();
+    ++state_.k;
+    state_.phase = state_.k > settings_.steps ? kDone : kMoving;
+    record_row(equilibrated, target);
+  }
+
+  double wall_seconds() const {
+    return state_.wall_seconds_before + std::chrono::duration<double>(Clock::now() - session_start_).count();
+  }
+
+  void record_row(bool equilibrated, double target) {
+    gel::v1::CurveRow row;
+    const WallStress stress = system_.wall_stress();
+    const int index = curve_.rows_size();
+    row.set_k(index);
+    row.set_phi(system_.packing_fraction());
+    row.set_target_phi(target);
+    row.set_p(stress.p);
+    row.set_p_top(stress.p_top);
+    row.set_p_bot(stress.p_bottom);
+    row.set_contact_number(system_.mean_contact_number());
+    row.set_stored_energy(system_.stored_energy());
+    row.set_dissipated_energy(system_.energy().dissipated);
+    gel::v1::Events* events = row.mutable_ruptures();
+    events->set_normal(system_.events().normal);
+    events->set_sliding(system_.events().sliding);
+    events->set_rolling(system_.events().rolling);
+    events->set_created(system_.events().created);
+    row.set_equilibrated(equilibrated);
+    row.set_steps(system_.step_count());
+    row.set_sim_time(system_.time());
+    row.set_wall_seconds(wall_seconds());
+    for (const double phi : phi_profile(system_, settings_.profile_slices)) row.add_phi_profile(phi);
+    row.set_drag_energy(system_.energy().drag);
+    row.set_wall_work(system_.energy().wall_work);
+    row.set_kinetic_energy(system_.kinetic_energy());
+    for (const double value : {row.p(), row.stored_energy(), row.dissipated_energy(), row.kinetic_energy(), row.phi()})
+      require_finite_state("a recorded observable", value);
+    if (!options_.out_dir.empty() && options_.write_snapshots) {
+      char name[32];
+      std::snprintf(name, sizeof name, "snapshots/k_%03d.pb", index);
+      std::filesystem::create_directories(std::filesystem::path(options_.out_dir) / "snapshots");
+      write_configuration(system_.configuration(), (std::filesystem::path(options_.out_dir) / name).string());
+      row.set_snapshot(name);
+    }
+    *curve_.add_rows() = row;
+    if (!options_.out_dir.empty()) {
+      write_curve(curve_, options_.out_dir);
+      save_checkpoint();
+    }
+    if (options_.on_row) options_.on_row(row);
+  }
+
+  void save_checkpoint() {
+    if (options_.out_dir.empty()) return;
+    CompressionState state = state_;
+    state.wall_seconds_before = wall_seconds();
+    std::string bytes(kCheckpointMagic, sizeof kCheckpointMagic);
+    put_block(bytes, curve_.SerializeAsString());
+    put_block(bytes, encode_state(state));
+    put_block(bytes, system_.save_state());
+    write_file_atomically(checkpoint_path(options_.out_dir), bytes);
+    last_checkpoint_ = Clock::now();
+  }
+
+  gel::v1::Progress progress(const char* phase) const {
+    gel::v1::Progress p;
+    const int k = std::min(state_.k, settings_.steps);
+    p.set_k(k);
+    p.set_k_total(settings_.steps);
+    p.set_phi(system_.packing_fraction());
+    p.set_target_phi(targets_[static_cast<std::size_t>(k - 1)]);
+    p.set_p(system_.wall_stress().p);
+    gel::v1::Events* events = p.mutable_events();
+    events->set_normal(system_.events().normal);
+    events->set_sliding(system_.events().sliding);
+    events->set_rolling(system_.events().rolling);
+    events->set_created(system_.events().created);
+    const double elapsed = wall_seconds();
+    p.set_elapsed_seconds(elapsed);
+    // Done fraction: finished targets plus the compression in ln(phi) towards the current one
+    // (waits are counted as done with their target: a rough but monotonic estimate).
+    double fraction = 1.0;
+    if (state_.phase != kDone) {
+      const double from = state_.k == 1 ? state_.phi0 : targets_[static_cast<std::size_t>(state_.k - 2)];
+      const double within = std::clamp(std::log(p.phi() / from) / std::log(p.target_phi() / from), 0.0, 1.0);
+      fraction = (state_.k - 1 + within) / settings_.steps;
+    }
+    p.set_remaining_seconds(fraction > 0.01 ? elapsed * (1.0 - fraction) / fraction : -1.0);
+    p.set_steps(system_.step_count());
+    p.set_phase(phase);
+    return p;
+  }
+
+  void between_chunks() {
+    const bool want_clock = static_cast<bool>(options_.on_progress) || !options_.out_dir.empty();
+    if (!want_clock) return;
+    const Clock::time_point now = Clock::now();
+    if (options_.on_progress &&
+        std::chrono::duration<double>(now - last_progress_).count() >= options_.progress_interval_seconds) {
+      last_progress_ = now;
+      options_.on_progress(progress(state_.phase == kMoving ? "compressing" : state_.phase == kWaiting ? "waiting" : "done"));
+    }
+    if (!options_.out_dir.empty() &&
+        std::chrono::duration<double>(now - last_checkpoint_).count() >= settings_.checkpoint_seconds)
+      save_checkpoint();
+  }
+
+  System system_;
+  gel::v1::Curve curve_;
+  CompressionState state_;
+  CompressionSettings settings_;
+  RunOptions options_;
+  std::vector<double> targets_;
+  Clock::time_point session_start_, last_progress_, last_checkpoint_;
+};
+
+}  // namespace
+
+bool has_checkpoint(const std::string& out_dir) {
+  return !out_dir.empty() && std::filesystem::is_regular_file(checkpoint_path(out_dir));
+}
+
+CompressionResult run_compression(const gel::v1::Scene& scene, const RunOptions& options, const Configuration* initial) {
+  const gel::v1::Scene resolved = resolve_compression_scene(scene);
+  require_non_negative("progress_interval_seconds", options.progress_interval_seconds);
+  const SimParams params = resolve_sim_params(resolved);
+  if (!options.out_dir.empty()) std::filesystem::create_directories(options.out_dir);
+
+  std::optional<Configuration> generated;
+  if (!initial) {
+    if (resolved.generator().n_floc() == 0)
+      throw InvalidArgument("generator", "needs a generator preset or parameters, or an initial configuration");
+    if (options.on_progress) {
+      gel::v1::Progress p;
+      p.set_phase("generating");
+      p.set_k_total(resolved.compression().steps());
+      p.set_remaining_seconds(-1);
+      options.on_progress(p);
+    }
+    generated = generate_gel(resolved.generator());
+    initial = &*generated;
+  }
+  System system(*initial, params);
+  if (!system.has_walls()) system.install_walls();
+  system.compute_forces();
+
+  gel::v1::Curve curve;
+  *curve.mutable_scene() = resolved;
+  curve.set_program_version(program_version());
+  curve.set_particles(static_cast<int>(system.size()));
+  CompressionState state;
+  state.phi0 = system.packing_fraction();
+  compression_targets(state.phi0, resolved.compression().w0(), resolved.compression().phi_max(),
+                      resolved.compression().steps());  // validates phi_max against phi_1
+
+  CompressionRun run(std::move(system), std::move(curve), state, options);
+  run.start();
+  return run.run();
+}
+
+CompressionResult resume_compression(const RunOptions& options) {
+  if (!has_checkpoint(options.out_dir))
+    throw InvalidArgument("out_dir", "no checkpoint in '" + options.out_dir + "'");
+  const std::string bytes = read_file(checkpoint_path(options.out_dir));
+  if (bytes.size() < sizeof kCheckpointMagic || std::memcmp(bytes.data(), kCheckpointMagic, sizeof kCheckpointMagic) != 0)
+    throw InvalidArgument("out_dir", "'" + checkpoint_path(options.out_dir) + "' is not a compression checkpoint");
+  const std::string body = bytes.substr(sizeof kCheckpointMagic);
+  ByteReader reader(body);
+  gel::v1::Curve curve;
+  if (!curve.ParseFromString(reader.block())) throw InvalidArgument("out_dir", "checkpoint curve is corrupt");
+  const CompressionState state = decode_state(reader.block());
+  System system = System::load_state(reader.block());
+  if (!reader.done()) throw InvalidArgument("out_dir", "checkpoint has trailing bytes");
+  CompressionRun run(std::move(system), std::move(curve), state, options);
+  return run.run();
+}
+
+}  // namespace gel

@@ -1,0 +1,237 @@
+// Compression scenes: the presets (quick, paper-bond1, paper-bond2), the fidelity presets
+// (fast, default, paper), resolution of every unset field to its default, validation, JSON and
+// the phi_k schedule. The protocol itself is in compression_protocol.cpp.
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <google/protobuf/util/json_util.h>
+
+#include "gel/compression.hpp"
+#include "compression_internal.hpp"
+#include "gel/errors.hpp"
+#include "gel/generator.hpp"
+#include "gel/system.hpp"
+#include "gel/units.hpp"
+
+namespace gel {
+namespace {
+
+// MODEL.md "Stepwise uniaxial compression" reference values.
+constexpr double kReferenceW0 = 4.0 / 3.0;
+constexpr double kReferencePhiMax = 0.74;  // w = 1.1 and k' = 17 from phi_0 ~ 0.12
+constexpr int kReferenceSteps = 17;
+constexpr double kReferenceA = 1e-2;
+constexpr std::int64_t kReferenceMExam = 10000;
+
+// Per bond set: wall speed in units of v0 = a sqrt(k_R/m), and B. A custom bond law (no preset)
+// takes the bond 1 values.
+struct BondReference {
+  double v_wall_v0;
+  double b_tolerance;
+};
+BondReference bond_reference(const std::string& bond_preset) {
+  if (bond_preset == "bond2") return {1e-4, 1e-4};
+  return {5e-4, 1e-3};
+}
+
+// Fidelity presets relative to the reference ("paper"). PROVISIONAL: "default" and "fast" are
+// first guesses (faster walls, shorter exam interval, looser B); the accuracy study of issue 7
+// will replace them by measured choices.
+struct Fidelity {
+  double wall_speed_factor;   // v_wall / reference v_wall
+  std::int64_t m_exam;        // steps between equilibrium tests
+  double b_factor;            // B / reference B
+  bool approach_shortcut;     // jump the stress-free approach
+};
+Fidelity fidelity_preset(const std::string& name) {
+  if (name == "paper") return {1.0, kReferenceMExam, 1.0, false};
+  if (name == "default") return {4.0, 2000, 3.0, true};
+  if (name == "fast") return {20.0, 500, 10.0, true};
+  throw InvalidArgument("compression.fidelity", "unknown fidelity '" + name + "' (known: fast, default, paper)");
+}
+
+// Default waiting limit per target, in exam intervals.
+constexpr double kDefaultMaxWaitExams = 100;
+constexpr double kDefaultStressFloor = 1e-6;       // [P0]
+constexpr double kDefaultRestSpeedFactor = 1e-2;   // rest speed / v_wall
+constexpr int kDefaultProfileSlices = 20;
+constexpr double kDefaultCheckpointSeconds = 300;
+
+void require_fraction(const std::string& field, double value) {
+  require_positive(field, value);
+  if (value >= kMaxPackingFraction)
+    throw InvalidArgument(field, "must be below the densest packing " + std::to_string(kMaxPackingFraction));
+}
+
+}  // namespace
+
+std::vector<std::string> scene_preset_names() { return {"quick", "paper-bond1", "paper-bond2"}; }
+
+gel::v1::Scene scene_preset(std::string_view name) {
+  gel::v1::Scene scene;
+  scene.set_preset(std::string(name));
+  scene.set_name(std::string(name));
+  gel::v1::Compression* compression = scene.mutable_compression();
+  if (name == "paper-bond1" || name == "paper-bond2") {
+    // The generator presets and MODEL.md's reference protocol for the bond set.
+    scene.mutable_bond()->set_preset(name == "paper-bond1" ? "bond1" : "bond2");
+    scene.mutable_generator()->set_preset(std::string(name));
+    compression->set_fidelity("paper");
+  } else if (name == "quick") {
+    // 256 particles, six targets up to phi = 0.5 (well past the gel point, so P_y rises) with
+    // the reference protocol: a demo and test scene of about 15 s on one core.
+    scene.mutable_bond()->set_preset("bond1");
+    scene.mutable_generator()->set_preset("quick");
+    compression->set_fidelity("paper");
+    compression->set_steps(6);
+    compression->set_phi_max(0.5);
+  } else {
+    throw InvalidArgument("preset", "unknown scene preset '" + std::string(name) +
+                                        "' (known: quick, paper-bond1, paper-bond2)");
+  }
+  scene.mutable_generator()->set_seed(1);
+  return scene;
+}
+
+gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
+  if (scene.protocol_case() == gel::v1::Scene::kBending)
+    throw InvalidArgument("compression", "the scene describes a bending protocol, not a compression");
+  gel::v1::Scene resolved;
+  if (!scene.preset().empty()) resolved = scene_preset(scene.preset());
+  // Explicit non-zero fields (and set optional fields) override the preset.
+  const bool seed_given = scene.generator().seed() != 0;
+  resolved.MergeFrom(scene);
+  if (!seed_given && resolved.generator().seed() == 0) resolved.mutable_generator()->set_seed(1);
+
+  // Bond law and integration, written back resolved so that the stored scene is complete.
+  if (resolved.bond().preset().empty() && resolved.bond().k_normal() == 0.0) resolved.mutable_bond()->set_preset("bond1");
+  const SimParams params = resolve_sim_params(resolved);
+  gel::v1::BondParameters* bond = resolved.mutable_bond();
+  bond->set_k_normal(params.bond.k_normal);
+  bond->set_k_sliding(params.bond.k_sliding);
+  bond->set_k_rolling(params.bond.k_rolling);
+  bond->set_overlap_coefficient(params.bond.overlap_coefficient);
+  bond->set_f_normal_critical(params.bond.f_normal_critical);
+  bond->set_f_sliding_critical(params.bond.f_sliding_critical);
+  bond->set_m_rolling_critical(params.bond.m_rolling_critical);
+  gel::v1::Integration* integration = resolved.mutable_integration();
+  integration->set_dt(params.dt);
+  integration->set_dt_fraction(params.dt_fraction);
+  integration->set_eta_factor(params.eta_factor);
+  integration->set_skin(params.skin);
+  integration->set_guard_interval(params.guard_interval);
+  integration->set_max_overlap(params.max_overlap);
+  if (params.max_speed != 0.0) integration->set_max_speed(params.max_speed);
+
+  if (!(params.effects & kWalls)) throw InvalidArgument("effects", "compression needs the 'walls' effect");
+  if (resolved.generator().preset().empty() && resolved.generator().n_floc() == 0) {
+    // No generator: the caller must pass an initial configuration (checked when running).
+  } else {
+    *resolved.mutable_generator() = resolve_generator(resolved.generator());
+  }
+
+  gel::v1::Compression* c = resolved.mutable_compression();
+  if (c->fidelity().empty()) c->set_fidelity("default");
+  const Fidelity fidelity = fidelity_preset(c->fidelity());
+  const BondReference reference = bond_reference(resolved.bond().preset());
+
+  if (c->w0() == 0.0) c->set_w0(kReferenceW0);
+  require_finite("compression.w0", c->w0());
+  if (c->w0() <= 1.0) throw InvalidArgument("compression.w0", "must exceed 1 (phi_1 = w0 phi_0 compresses)");
+  if (c->phi_max() == 0.0) c->set_phi_max(kReferencePhiMax);
+  require_fraction("compression.phi_max", c->phi_max());
+  if (c->steps() == 0) c->set_steps(kReferenceSteps);
+  if (c->steps() < 1 || c->steps() > 10000) throw InvalidArgument("compression.steps", "must be between 1 and 10000");
+
+  const double v0 = kRadius * std::sqrt(params.bond.k_rolling / (kRadius * kRadius) / kMass);
+  if (c->v_wall() != 0.0) {
+    require_positive("compression.v_wall", c->v_wall());
+    c->set_v_wall_v0(c->v_wall() / v0);
+  } else {
+    if (c->v_wall_v0() == 0.0) c->set_v_wall_v0(reference.v_wall_v0 * fidelity.wall_speed_factor);
+    require_positive("compression.v_wall_v0", c->v_wall_v0());
+    c->set_v_wall(c->v_wall_v0() * v0);
+  }
+  // A wall must not cross the neighbour-list skin in a few steps or outrun the speed guard.
+  if (c->v_wall() * params.dt > 0.05 * params.skin)
+    throw InvalidArgument("compression.v_wall", "moves a wall more than 5% of the skin per step; lower it");
+
+  if (c->m_exam() == 0) c->set_m_exam(fidelity.m_exam);
+  if (c->m_exam() < 1) throw InvalidArgument("compression.m_exam", "must be at least 1 step");
+  if (c->a_tolerance() == 0.0) c->set_a_tolerance(kReferenceA);
+  require_positive("compression.a_tolerance", c->a_tolerance());
+  if (c->b_tolerance() == 0.0) c->set_b_tolerance(reference.b_tolerance * fidelity.b_factor);
+  require_positive("compression.b_tolerance", c->b_tolerance());
+  if (c->max_wait_time() == 0.0)
+    c->set_max_wait_time(kDefaultMaxWaitExams * static_cast<double>(c->m_exam()) * params.dt);
+  require_positive("compression.max_wait_time", c->max_wait_time());
+  if (c->stress_floor() == 0.0) c->set_stress_floor(kDefaultStressFloor);
+  require_positive("compression.stress_floor", c->stress_floor());
+  if (!c->has_approach_shortcut()) c->set_approach_shortcut(fidelity.approach_shortcut);
+  if (c->profile_slices() == 0) c->set_profile_slices(kDefaultProfileSlices);
+  if (c->profile_slices() < 1 || c->profile_slices() > 100000)
+    throw InvalidArgument("compression.profile_slices", "must be between 1 and 100000");
+  if (c->checkpoint_seconds() == 0.0) c->set_checkpoint_seconds(kDefaultCheckpointSeconds);
+  require_positive("compression.checkpoint_seconds", c->checkpoint_seconds());
+  if (c->rest_speed() == 0.0) c->set_rest_speed(kDefaultRestSpeedFactor * c->v_wall());
+  require_positive("compression.rest_speed", c->rest_speed());
+  return resolved;
+}
+
+gel::v1::Scene scene_from_json(const std::string& json) {
+  gel::v1::Scene scene;
+  google::protobuf::util::JsonParseOptions options;
+  options.ignore_unknown_fields = false;
+  const auto status = google::protobuf::util::JsonStringToMessage(json, &scene, options);
+  if (!status.ok()) throw InvalidArgument("scene", "not a valid scene: " + status.ToString());
+  return scene;
+}
+
+std::string scene_to_json(const gel::v1::Scene& scene) {
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  options.always_print_primitive_fields = true;
+  const auto status = google::protobuf::util::MessageToJsonString(scene, &json, options);
+  if (!status.ok()) throw std::runtime_error("cannot encode scene: " + status.ToString());
+  return json;
+}
+
+std::vector<double> compression_targets(double phi0, double w0, double phi_max, int steps) {
+  require_fraction("phi0", phi0);
+  require_finite("compression.w0", w0);
+  if (w0 <= 1.0) throw InvalidArgument("compression.w0", "must exceed 1");
+  if (steps < 1) throw InvalidArgument("compression.steps", "must be at least 1");
+  const double phi1 = w0 * phi0;
+  std::vector<double> targets{phi1};
+  if (steps == 1) return targets;
+  require_fraction("compression.phi_max", phi_max);
+  if (!(phi_max > phi1))
+    throw InvalidArgument("compression.phi_max", "must exceed phi_1 = w0 phi_0 = " + std::to_string(phi1));
+  const double w = std::pow(phi_max / phi1, 1.0 / (steps - 1));
+  for (int k = 2; k <= steps; ++k) targets.push_back(phi1 * std::pow(w, k - 1));
+  targets.back() = phi_max;  // exactly, not up to the rounding of w^(k'-1)
+  return targets;
+}
+
+CompressionSettings compression_settings(const gel::v1::Scene& resolved) {
+  const gel::v1::Compression& c = resolved.compression();
+  CompressionSettings s;
+  s.w0 = c.w0();
+  s.phi_max = c.phi_max();
+  s.steps = c.steps();
+  s.v_wall = c.v_wall();
+  s.m_exam = c.m_exam();
+  s.a_tolerance = c.a_tolerance();
+  s.b_tolerance = c.b_tolerance();
+  s.max_wait_time = c.max_wait_time();
+  s.stress_floor = c.stress_floor();
+  s.rest_speed = c.rest_speed();
+  s.approach_shortcut = c.approach_shortcut();
+  s.profile_slices = c.profile_slices();
+  s.checkpoint_seconds = c.checkpoint_seconds();
+  return s;
+}
+
+}  // namespace gel

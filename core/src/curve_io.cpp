@@ -1,0 +1,177 @@
+// Compression curves on disk (format in curve_io.hpp): JSON for programs, CSV for people and
+// spreadsheets. Doubles are printed in shortest round-trip form, so JSON reads back exactly.
+#include "gel/curve_io.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include <google/protobuf/util/json_util.h>
+
+#include "gel/compression.hpp"
+#include "gel/configuration.hpp"
+#include "gel/errors.hpp"
+
+namespace gel {
+namespace {
+
+// Shortest decimal text that reads back to the same double.
+std::string exact(double value) {
+  char buffer[32];
+  for (int precision = 15; precision <= 17; ++precision) {
+    std::snprintf(buffer, sizeof buffer, "%.*g", precision, value);
+    if (std::strtod(buffer, nullptr) == value) break;
+  }
+  return buffer;
+}
+
+template <class T>
+T field(const nlohmann::json& row, const char* name) {
+  if (!row.contains(name)) throw InvalidArgument(std::string("rows.") + name, "missing");
+  try {
+    return row.at(name).get<T>();
+  } catch (const nlohmann::json::exception& error) {
+    throw InvalidArgument(std::string("rows.") + name, error.what());
+  }
+}
+
+template <class T>
+T optional_field(const nlohmann::json& row, const char* name, T fallback) {
+  return row.contains(name) && !row.at(name).is_null() ? field<T>(row, name) : fallback;
+}
+
+}  // namespace
+
+nlohmann::json curve_row_to_json(const gel::v1::CurveRow& row) {
+  nlohmann::json j;
+  j["k"] = row.k();
+  j["phi"] = row.phi();
+  j["target_phi"] = row.target_phi();
+  j["P"] = row.p();
+  j["P_top"] = row.p_top();
+  j["P_bot"] = row.p_bot();
+  j["contact_number"] = row.contact_number();
+  j["stored_energy"] = row.stored_energy();
+  j["dissipated_energy"] = row.dissipated_energy();
+  j["ruptures"] = {{"normal", row.ruptures().normal()},
+                   {"sliding", row.ruptures().sliding()},
+                   {"rolling", row.ruptures().rolling()}};
+  j["bonds_created"] = row.ruptures().created();
+  j["equilibrated"] = row.equilibrated();
+  j["steps"] = row.steps();
+  j["sim_time"] = row.sim_time();
+  j["wall_seconds"] = row.wall_seconds();
+  j["drag_energy"] = row.drag_energy();
+  j["wall_work"] = row.wall_work();
+  j["kinetic_energy"] = row.kinetic_energy();
+  j["phi_profile"] = std::vector<double>(row.phi_profile().begin(), row.phi_profile().end());
+  j["snapshot"] = row.snapshot();
+  return j;
+}
+
+gel::v1::CurveRow curve_row_from_json(const nlohmann::json& j) {
+  if (!j.is_object()) throw InvalidArgument("rows", "a row must be a JSON object");
+  gel::v1::CurveRow row;
+  row.set_k(field<int>(j, "k"));
+  row.set_phi(field<double>(j, "phi"));
+  row.set_target_phi(optional_field<double>(j, "target_phi", 0.0));
+  row.set_p(field<double>(j, "P"));
+  row.set_p_top(field<double>(j, "P_top"));
+  row.set_p_bot(field<double>(j, "P_bot"));
+  row.set_contact_number(field<double>(j, "contact_number"));
+  row.set_stored_energy(field<double>(j, "stored_energy"));
+  row.set_dissipated_energy(field<double>(j, "dissipated_energy"));
+  const nlohmann::json ruptures = field<nlohmann::json>(j, "ruptures");
+  if (!ruptures.is_object()) throw InvalidArgument("rows.ruptures", "must be an object");
+  row.mutable_ruptures()->set_normal(optional_field<std::int64_t>(ruptures, "normal", 0));
+  row.mutable_ruptures()->set_sliding(optional_field<std::int64_t>(ruptures, "sliding", 0));
+  row.mutable_ruptures()->set_rolling(optional_field<std::int64_t>(ruptures, "rolling", 0));
+  row.mutable_ruptures()->set_created(optional_field<std::int64_t>(j, "bonds_created", 0));
+  row.set_equilibrated(field<bool>(j, "equilibrated"));
+  row.set_steps(field<std::int64_t>(j, "steps"));
+  row.set_sim_time(optional_field<double>(j, "sim_time", 0.0));
+  row.set_wall_seconds(optional_field<double>(j, "wall_seconds", 0.0));
+  row.set_drag_energy(optional_field<double>(j, "drag_energy", 0.0));
+  row.set_wall_work(optional_field<double>(j, "wall_work", 0.0));
+  row.set_kinetic_energy(optional_field<double>(j, "kinetic_energy", 0.0));
+  for (const double phi : optional_field<std::vector<double>>(j, "phi_profile", {})) row.add_phi_profile(phi);
+  row.set_snapshot(optional_field<std::string>(j, "snapshot", ""));
+  return row;
+}
+
+nlohmann::json curve_to_json(const gel::v1::Curve& curve) {
+  nlohmann::json j;
+  j["program_version"] = curve.program_version();
+  j["particles"] = curve.particles();
+  j["parameters"] = nlohmann::json::parse(scene_to_json(curve.scene()));
+  j["rows"] = nlohmann::json::array();
+  for (const gel::v1::CurveRow& row : curve.rows()) j["rows"].push_back(curve_row_to_json(row));
+  return j;
+}
+
+gel::v1::Curve curve_from_json(const nlohmann::json& j) {
+  if (!j.is_object()) throw InvalidArgument("curve", "must be a JSON object");
+  gel::v1::Curve curve;
+  curve.set_program_version(j.value("program_version", ""));
+  if (j.contains("particles")) curve.set_particles(field<int>(j, "particles"));
+  if (j.contains("parameters")) *curve.mutable_scene() = scene_from_json(j.at("parameters").dump());
+  if (!j.contains("rows") || !j.at("rows").is_array()) throw InvalidArgument("rows", "must be a list");
+  for (const nlohmann::json& row : j.at("rows")) *curve.add_rows() = curve_row_from_json(row);
+  return curve;
+}
+
+std::string curve_to_csv(const gel::v1::Curve& curve) {
+  std::ostringstream out;
+  out << "k,phi [1],target_phi [1],P [F0/a^2],P_top [F0/a^2],P_bot [F0/a^2],contact_number [1],"
+         "stored_energy [F0 a],dissipated_energy [F0 a],ruptures_normal [count],ruptures_sliding [count],"
+         "ruptures_rolling [count],bonds_created [count],equilibrated [0/1],steps [count],sim_time [t0],"
+         "wall_seconds [s],drag_energy [F0 a],wall_work [F0 a],kinetic_energy [F0 a],snapshot\n";
+  for (const gel::v1::CurveRow& r : curve.rows()) {
+    out << r.k() << ',' << exact(r.phi()) << ',' << exact(r.target_phi()) << ',' << exact(r.p()) << ','
+        << exact(r.p_top()) << ',' << exact(r.p_bot()) << ',' << exact(r.contact_number()) << ','
+        << exact(r.stored_energy()) << ',' << exact(r.dissipated_energy()) << ',' << r.ruptures().normal() << ','
+        << r.ruptures().sliding() << ',' << r.ruptures().rolling() << ',' << r.ruptures().created() << ','
+        << (r.equilibrated() ? 1 : 0) << ',' << r.steps() << ',' << exact(r.sim_time()) << ','
+        << exact(r.wall_seconds()) << ',' << exact(r.drag_energy()) << ',' << exact(r.wall_work()) << ','
+        << exact(r.kinetic_energy()) << ',' << r.snapshot() << '\n';
+  }
+  return out.str();
+}
+
+// One row per equilibrium: k, phi, then the packing fraction of each slice, bottom to top.
+std::string profiles_to_csv(const gel::v1::Curve& curve) {
+  std::ostringstream out;
+  int slices = 0;
+  for (const gel::v1::CurveRow& r : curve.rows()) slices = std::max(slices, r.phi_profile_size());
+  out << "k,phi [1]";
+  for (int s = 0; s < slices; ++s) out << ",slice_" << s << " [1]";
+  out << '\n';
+  for (const gel::v1::CurveRow& r : curve.rows()) {
+    out << r.k() << ',' << exact(r.phi());
+    for (const double phi : r.phi_profile()) out << ',' << exact(phi);
+    out << '\n';
+  }
+  return out.str();
+}
+
+void write_curve(const gel::v1::Curve& curve, const std::string& dir) {
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path base(dir);
+  write_file_atomically((base / "curve.json").string(), curve_to_json(curve).dump(1) + "\n");
+  write_file_atomically((base / "curve.csv").string(), curve_to_csv(curve));
+  write_file_atomically((base / "profiles.csv").string(), profiles_to_csv(curve));
+}
+
+gel::v1::Curve read_curve(const std::string& dir) {
+  const std::string path = (std::filesystem::path(dir) / "curve.json").string();
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(read_file(path));
+  } catch (const nlohmann::json::exception& error) {
+    throw InvalidArgument("path", "'" + path + "' is not JSON: " + error.what());
+  }
+  return curve_from_json(j);
+}
+
+}  // namespace gel

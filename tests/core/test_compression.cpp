@@ -1,0 +1,380 @@
+// Stepwise uniaxial compression (MODEL.md "Stepwise uniaxial compression"): the schedule, the
+// presets and their validation, the protocol on the quick preset, checkpoint/resume, the wait
+// limit, the approach shortcut, errors, and the curve files. Most tests use a 96-particle gel
+// so that the file stays fast under the sanitizers too.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+#include <google/protobuf/util/message_differencer.h>
+
+#include "gel/compression.hpp"
+#include "gel/configuration.hpp"
+#include "gel/curve_io.hpp"
+#include "gel/errors.hpp"
+
+namespace gel {
+namespace {
+
+bool sanitized() { return std::getenv("GEL_SANITIZED") != nullptr; }
+
+// A fresh, empty temporary directory named after the running test.
+std::string temp_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("gel_compression_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+// 96 particles (12 flocs of 8) in 24 x 48, three targets up to phi = 0.5, fast fidelity.
+gel::v1::Scene tiny_scene() {
+  gel::v1::Scene scene;
+  scene.mutable_bond()->set_preset("bond1");
+  gel::v1::Generator* g = scene.mutable_generator();
+  g->set_lx(24);
+  g->set_ly(48);
+  g->set_n_floc(8);
+  g->set_n_clusters(12);
+  g->set_seed(3);
+  gel::v1::Compression* c = scene.mutable_compression();
+  c->set_fidelity("fast");
+  c->set_steps(3);
+  c->set_phi_max(0.5);
+  c->set_m_exam(200);
+  return scene;
+}
+
+template <class F>
+void expect_invalid(const std::string& field, F&& f) {
+  try {
+    f();
+    ADD_FAILURE() << "no InvalidArgument for " << field;
+  } catch (const InvalidArgument& e) {
+    EXPECT_EQ(e.field(), field) << e.what();
+  }
+}
+
+// Every field of two rows but the wall-clock time.
+void expect_same_row(const gel::v1::CurveRow& a, const gel::v1::CurveRow& b) {
+  gel::v1::CurveRow x = a, y = b;
+  x.clear_wall_seconds();
+  y.clear_wall_seconds();
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(x, y))
+      << "row " << a.k() << " differs:\n" << x.DebugString() << "\nvs\n" << y.DebugString();
+}
+
+TEST(CompressionSchedule, ReproducesPhiKExactly) {
+  const double phi0 = 0.12, w0 = 4.0 / 3.0, phi_max = 0.74;
+  const std::vector<double> targets = compression_targets(phi0, w0, phi_max, 17);
+  ASSERT_EQ(targets.size(), 17u);
+  const double phi1 = w0 * phi0;
+  const double w = std::pow(phi_max / phi1, 1.0 / 16.0);
+  EXPECT_NEAR(w, 1.1, 0.002);  // MODEL.md: w = 1.1 for k' = 17, phi_max ~ 0.74
+  EXPECT_DOUBLE_EQ(targets[0], phi1);
+  for (int k = 1; k <= 17; ++k) EXPECT_NEAR(targets[k - 1], phi1 * std::pow(w, k - 1), 1e-14) << "k = " << k;
+  EXPECT_EQ(targets.back(), phi_max);
+  for (std::size_t k = 1; k < targets.size(); ++k) EXPECT_GT(targets[k], targets[k - 1]);
+  EXPECT_EQ(compression_targets(0.2, 1.5, 0.9, 1), std::vector<double>{0.2 * 1.5});
+  expect_invalid("compression.phi_max", [] { compression_targets(0.3, 2.0, 0.5, 4); });
+  expect_invalid("compression.w0", [] { compression_targets(0.3, 1.0, 0.5, 4); });
+}
+
+TEST(CompressionScene, PaperPresetsCarryTheReferenceValues) {
+  const gel::v1::Scene b1 = resolve_compression_scene(scene_preset("paper-bond1"));
+  const gel::v1::Compression& c1 = b1.compression();
+  EXPECT_EQ(c1.fidelity(), "paper");
+  EXPECT_DOUBLE_EQ(c1.w0(), 4.0 / 3.0);
+  EXPECT_EQ(c1.steps(), 17);
+  EXPECT_DOUBLE_EQ(c1.phi_max(), 0.74);
+  EXPECT_EQ(c1.m_exam(), 10000);
+  EXPECT_DOUBLE_EQ(c1.a_tolerance(), 1e-2);
+  EXPECT_DOUBLE_EQ(c1.b_tolerance(), 1e-3);
+  EXPECT_DOUBLE_EQ(c1.v_wall_v0(), 5e-4);
+  EXPECT_DOUBLE_EQ(c1.v_wall(), 5e-4 * std::sqrt(20.0));  // v0 = a sqrt(k_R/m), k_R = 20
+  EXPECT_EQ(b1.generator().n_floc() * b1.generator().n_clusters(), 5760);
+  EXPECT_FALSE(c1.approach_shortcut());
+
+  const gel::v1::Compression c2 = resolve_compression_scene(scene_preset("paper-bond2")).compression();
+  EXPECT_DOUBLE_EQ(c2.b_tolerance(), 1e-4);
+  EXPECT_DOUBLE_EQ(c2.v_wall_v0(), 1e-4);
+
+  // Faster fidelities are faster: larger v_wall, smaller m_exam, looser B.
+  gel::v1::Scene scene = scene_preset("paper-bond1");
+  scene.mutable_compression()->set_fidelity("default");
+  const gel::v1::Compression d = resolve_compression_scene(scene).compression();
+  scene.mutable_compression()->set_fidelity("fast");
+  const gel::v1::Compression f = resolve_compression_scene(scene).compression();
+  EXPECT_GT(d.v_wall(), c1.v_wall());
+  EXPECT_GT(f.v_wall(), d.v_wall());
+  EXPECT_LT(d.m_exam(), c1.m_exam());
+  EXPECT_LT(f.m_exam(), d.m_exam());
+  EXPECT_GT(d.b_tolerance(), c1.b_tolerance());
+  EXPECT_GT(f.b_tolerance(), d.b_tolerance());
+
+  // Explicit fields override the preset; the resolved scene survives JSON.
+  scene.mutable_compression()->set_m_exam(1234);
+  const gel::v1::Scene resolved = resolve_compression_scene(scene);
+  EXPECT_EQ(resolved.compression().m_exam(), 1234);
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(scene_from_json(scene_to_json(resolved)), resolved));
+  EXPECT_EQ(scene_preset_names().size(), 3u);
+}
+
+TEST(CompressionScene, InvalidFieldsAreRejectedByName) {
+  auto with = [](auto change) {
+    gel::v1::Scene scene = tiny_scene();
+    change(*scene.mutable_compression());
+    return scene;
+  };
+  expect_invalid("preset", [] { scene_preset("huge"); });
+  expect_invalid("compression.fidelity", [&] { resolve_compression_scene(with([](auto& c) { c.set_fidelity("turbo"); })); });
+  expect_invalid("compression.v_wall", [&] { resolve_compression_scene(with([](auto& c) { c.set_v_wall(-1); })); });
+  expect_invalid("compression.v_wall", [&] { resolve_compression_scene(with([](auto& c) { c.set_v_wall(10); })); });
+  expect_invalid("compression.m_exam", [&] { resolve_compression_scene(with([](auto& c) { c.set_m_exam(-5); })); });
+  expect_invalid("compression.a_tolerance", [&] { resolve_compression_scene(with([](auto& c) { c.set_a_tolerance(-0.1); })); });
+  expect_invalid("compression.b_tolerance", [&] { resolve_compression_scene(with([](auto& c) { c.set_b_tolerance(NAN); })); });
+  expect_invalid("compression.phi_max", [&] { resolve_compression_scene(with([](auto& c) { c.set_phi_max(0.95); })); });
+  expect_invalid("compression.steps", [&] { resolve_compression_scene(with([](auto& c) { c.set_steps(-3); })); });
+  expect_invalid("compression.w0", [&] { resolve_compression_scene(with([](auto& c) { c.set_w0(0.5); })); });
+  expect_invalid("compression.max_wait_time", [&] { resolve_compression_scene(with([](auto& c) { c.set_max_wait_time(-1); })); });
+  expect_invalid("compression.profile_slices", [&] { resolve_compression_scene(with([](auto& c) { c.set_profile_slices(-1); })); });
+  expect_invalid("generator.n_floc", [] {
+    gel::v1::Scene scene = tiny_scene();
+    scene.mutable_generator()->set_n_floc(6);
+    resolve_compression_scene(scene);
+  });
+  expect_invalid("compression", [] {
+    gel::v1::Scene scene;
+    scene.mutable_bending();
+    resolve_compression_scene(scene);
+  });
+  // phi_max below phi_1 is only known once the gel exists.
+  expect_invalid("compression.phi_max", [&] { run_compression(with([](auto& c) { c.set_phi_max(0.3); }), RunOptions{}); });
+  expect_invalid("scene", [] { scene_from_json("{\"compression\": {\"m_exam\": \"many\"}}"); });
+  expect_invalid("out_dir", [] {
+    RunOptions options;
+    options.out_dir = temp_dir("no_checkpoint");
+    resume_compression(options);
+  });
+}
+
+// The quick preset end to end: k' + 1 rows, walls stopped at the targets, rising phi and P_y,
+// cumulative counters that never decrease, balanced walls at equilibrium.
+TEST(Compression, QuickPresetRunsToTheEnd) {
+  gel::v1::Scene scene = scene_preset("quick");
+  if (sanitized()) scene.mutable_compression()->set_fidelity("fast");  // ~10x slower under ASan
+  int progress_calls = 0, row_calls = 0;
+  RunOptions options;
+  options.progress_interval_seconds = 0.05;
+  options.on_progress = [&](const gel::v1::Progress& p) {
+    ++progress_calls;
+    EXPECT_GE(p.k(), 0);
+    EXPECT_LE(p.k(), p.k_total());
+  };
+  options.on_row = [&](const gel::v1::CurveRow&) { ++row_calls; };
+  const CompressionResult result = run_compression(scene, options);
+  ASSERT_TRUE(result.finished);
+  EXPECT_FALSE(result.stopped);
+  const gel::v1::Curve& curve = result.curve;
+  const gel::v1::Compression& c = curve.scene().compression();
+  ASSERT_EQ(curve.rows_size(), c.steps() + 1);
+  EXPECT_EQ(row_calls, curve.rows_size());
+  EXPECT_GT(progress_calls, 1);
+  EXPECT_EQ(curve.particles(), 256);
+  const std::vector<double> targets = compression_targets(curve.rows(0).phi(), c.w0(), c.phi_max(), c.steps());
+  for (int k = 0; k < curve.rows_size(); ++k) {
+    const gel::v1::CurveRow& row = curve.rows(k);
+    SCOPED_TRACE("row " + std::to_string(k));
+    EXPECT_EQ(row.k(), k);
+    EXPECT_EQ(row.phi_profile_size(), 20);
+    for (const double value : {row.p(), row.p_top(), row.p_bot(), row.stored_energy(), row.dissipated_energy()})
+      EXPECT_TRUE(std::isfinite(value));
+    // The mean of the slice profile is the packing fraction (exact disk areas per slice).
+    double mean = 0;
+    for (const double phi : row.phi_profile()) mean += phi / row.phi_profile_size();
+    EXPECT_NEAR(mean, row.phi(), 1e-9);
+    if (k == 0) continue;
+    EXPECT_NEAR(row.phi(), targets[k - 1], 1e-9 * targets[k - 1]);  // walls stop at the target
+    EXPECT_DOUBLE_EQ(row.target_phi(), targets[k - 1]);
+    const gel::v1::CurveRow& before = curve.rows(k - 1);
+    EXPECT_GT(row.phi(), before.phi());
+    EXPECT_GT(row.steps(), before.steps());
+    EXPECT_GE(row.sim_time(), before.sim_time());
+    EXPECT_GE(row.dissipated_energy(), before.dissipated_energy());
+    EXPECT_GE(row.drag_energy(), before.drag_energy());
+    EXPECT_GE(row.ruptures().normal(), before.ruptures().normal());
+    EXPECT_GE(row.ruptures().sliding(), before.ruptures().sliding());
+    EXPECT_GE(row.ruptures().rolling(), before.ruptures().rolling());
+    EXPECT_GE(row.ruptures().created(), before.ruptures().created());
+    EXPECT_GE(row.p(), -c.stress_floor());
+    // Contacts are only lost by breaks.
+    if (row.ruptures().normal() == before.ruptures().normal()) {
+      EXPECT_GE(row.contact_number(), before.contact_number());
+    }
+    if (row.equilibrated() && row.p() > c.stress_floor()) {
+      EXPECT_LT(std::abs(row.p_top() - row.p_bot()), c.a_tolerance() * row.p());
+    }
+  }
+  // P_y rises with phi over the run, and the network carries stress at the end.
+  EXPECT_GT(curve.rows(curve.rows_size() - 1).p(), 5.0 * std::max(curve.rows(1).p(), c.stress_floor()));
+  EXPECT_GT(curve.rows(curve.rows_size() - 1).ruptures().created(), 0);
+}
+
+// A run stopped twice (once while compressing, once while waiting) and resumed from its
+// checkpoints gives the same curve and final configuration as an uninterrupted run.
+TEST(Compression, ResumeIsBitIdentical) {
+  const gel::v1::Scene scene = tiny_scene();
+  const std::string reference_dir = temp_dir("reference"), resumed_dir = temp_dir("resumed");
+  RunOptions reference_options;
+  reference_options.out_dir = reference_dir;
+  const CompressionResult reference = run_compression(scene, reference_options);
+  ASSERT_TRUE(reference.finished);
+  const std::int64_t total_steps = reference.curve.rows(reference.curve.rows_size() - 1).steps();
+
+  std::atomic<bool> stop{false};
+  std::int64_t stop_at = total_steps / 3;
+  RunOptions options;
+  options.out_dir = resumed_dir;
+  options.stop = &stop;
+  options.progress_interval_seconds = 0;  // look at every chunk
+  options.on_progress = [&](const gel::v1::Progress& p) {
+    if (p.steps() >= stop_at) stop = true;
+  };
+  CompressionResult part = run_compression(scene, options);
+  ASSERT_TRUE(part.stopped);
+  ASSERT_FALSE(part.finished);
+  ASSERT_TRUE(has_checkpoint(resumed_dir));
+  stop = false;
+  stop_at = 2 * total_steps / 3;
+  part = resume_compression(options);
+  ASSERT_TRUE(part.stopped);
+  stop = false;
+  stop_at = total_steps * 10;
+  const CompressionResult resumed = resume_compression(options);
+  ASSERT_TRUE(resumed.finished);
+  ASSERT_EQ(resumed.curve.rows_size(), reference.curve.rows_size());
+  for (int k = 0; k < reference.curve.rows_size(); ++k) expect_same_row(reference.curve.rows(k), resumed.curve.rows(k));
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(reference.curve.scene(), resumed.curve.scene()));
+  const std::string last = reference.curve.rows(reference.curve.rows_size() - 1).snapshot();
+  ASSERT_FALSE(last.empty());
+  EXPECT_EQ(read_file(reference_dir + "/" + last), read_file(resumed_dir + "/" + last));
+  // The files on disk hold the same curve.
+  const gel::v1::Curve on_disk = read_curve(resumed_dir);
+  ASSERT_EQ(on_disk.rows_size(), reference.curve.rows_size());
+  for (int k = 0; k < on_disk.rows_size(); ++k) expect_same_row(on_disk.rows(k), reference.curve.rows(k));
+  // Resuming a finished run returns its curve at once.
+  EXPECT_TRUE(resume_compression(options).finished);
+  std::filesystem::remove_all(reference_dir);
+  std::filesystem::remove_all(resumed_dir);
+}
+
+// With B unreachable, no target equilibrates: every row is recorded, flagged, after the wait.
+TEST(Compression, StepThatCannotEquilibrateIsFlaggedNotDropped) {
+  gel::v1::Scene scene = tiny_scene();
+  gel::v1::Compression* c = scene.mutable_compression();
+  c->set_b_tolerance(1e-300);
+  c->set_stress_floor(1e-300);
+  c->set_rest_speed(1e-300);
+  const double dt = resolve_compression_scene(scene).integration().dt();
+  c->set_max_wait_time(3 * 200 * dt);
+  const CompressionResult result = run_compression(scene, RunOptions{});
+  ASSERT_TRUE(result.finished);
+  ASSERT_EQ(result.curve.rows_size(), 4);
+  EXPECT_TRUE(result.curve.rows(0).equilibrated());
+  for (int k = 1; k < 4; ++k) {
+    EXPECT_FALSE(result.curve.rows(k).equilibrated()) << "row " << k;
+    EXPECT_TRUE(std::isfinite(result.curve.rows(k).p()));
+    EXPECT_GT(result.curve.rows(k).phi(), result.curve.rows(k - 1).phi());
+  }
+}
+
+// Two separate chains, one on each wall: the shortcut brings the top one down in jumps (no
+// wall travel for the stress-free targets), then the walls compress the touching chains.
+TEST(Compression, ApproachShortcutJumpsTheStressFreeGap) {
+  Configuration config;
+  config.lx = 20;
+  config.ly = 40;
+  for (const double y : {2.0, 4.0, 6.0}) config.add_particle(10, y);
+  for (const double y : {30.0, 32.0, 34.0}) config.add_particle(10.5, y);
+  config.add_bond_at_contact(0, 1);
+  config.add_bond_at_contact(1, 2);
+  config.add_bond_at_contact(3, 4);
+  config.add_bond_at_contact(4, 5);
+  gel::v1::Scene scene;
+  scene.mutable_bond()->set_preset("bond1");
+  gel::v1::Compression* c = scene.mutable_compression();
+  c->set_fidelity("fast");
+  c->set_steps(3);
+  c->set_phi_max(0.1);
+  c->set_m_exam(100);
+  c->set_approach_shortcut(true);
+  const CompressionResult jumped = run_compression(scene, RunOptions{}, &config);
+  ASSERT_TRUE(jumped.finished);
+  ASSERT_EQ(jumped.curve.rows_size(), 4);
+  // Targets 1 and 2 are reached by jumps: one exam each, at rest.
+  EXPECT_EQ(jumped.curve.rows(1).steps(), 100);
+  EXPECT_EQ(jumped.curve.rows(2).steps(), 200);
+  EXPECT_TRUE(jumped.curve.rows(1).equilibrated());
+  EXPECT_GE(jumped.curve.rows(3).ruptures().created(), 1);  // the chains met
+  EXPECT_NEAR(jumped.curve.rows(3).phi(), 0.1, 1e-9);
+
+  c->set_approach_shortcut(false);
+  const CompressionResult walked = run_compression(scene, RunOptions{}, &config);
+  ASSERT_TRUE(walked.finished);
+  EXPECT_GT(walked.curve.rows(2).steps(), 10 * jumped.curve.rows(2).steps());
+}
+
+TEST(Compression, NumericalTroubleIsAnErrorNotACurve) {
+  gel::v1::Scene scene = tiny_scene();
+  scene.mutable_integration()->set_dt(0.3);  // omega dt ~ 4 for bond 1: beyond Verlet's limit 2
+  scene.mutable_compression()->set_v_wall(0.01);
+  try {
+    run_compression(scene, RunOptions{});
+    ADD_FAILURE() << "an unstable run returned a curve";
+  } catch (const StabilityError& e) {
+    EXPECT_NE(std::string(e.what()).find("step"), std::string::npos) << e.what();
+    std::cerr << "expected instability: " << e.what() << "\n";
+  }
+}
+
+TEST(CurveIo, JsonRoundTripAndCsv) {
+  gel::v1::Scene scene = tiny_scene();
+  scene.mutable_compression()->set_steps(2);
+  const std::string dir = temp_dir("curve_io");
+  RunOptions options;
+  options.out_dir = dir;
+  const gel::v1::Curve curve = run_compression(scene, options).curve;
+  ASSERT_EQ(curve.rows_size(), 3);
+
+  const gel::v1::Curve back = curve_from_json(nlohmann::json::parse(curve_to_json(curve).dump()));
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(back, curve));
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(read_curve(dir), curve));
+
+  const nlohmann::json j = curve_to_json(curve);
+  for (const char* key : {"k", "phi", "P", "P_top", "P_bot", "contact_number", "stored_energy", "dissipated_energy",
+                          "ruptures", "bonds_created", "equilibrated", "steps", "wall_seconds"})
+    EXPECT_TRUE(j["rows"][0].contains(key)) << key;
+  EXPECT_TRUE(j["rows"][0]["ruptures"].contains("rolling"));
+  EXPECT_EQ(j["parameters"]["compression"]["fidelity"], "fast");
+
+  const std::string csv = read_file(dir + "/curve.csv");
+  EXPECT_EQ(csv.rfind("k,phi [1],target_phi [1],P [F0/a^2],", 0), 0u);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/profiles.csv"));
+  for (const auto& row : curve.rows()) EXPECT_TRUE(std::filesystem::exists(dir + "/" + row.snapshot())) << row.snapshot();
+  const Configuration snapshot = read_configuration(dir + "/" + curve.rows(2).snapshot());
+  EXPECT_TRUE(snapshot.has_walls());
+  EXPECT_NEAR(snapshot.packing_fraction(), curve.rows(2).phi(), 1e-12);
+
+  expect_invalid("rows", [] { curve_from_json(nlohmann::json::parse("{\"rows\": 3}")); });
+  expect_invalid("rows.phi", [] { curve_from_json(nlohmann::json::parse("{\"rows\": [{\"k\": 0}]}")); });
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace gel
