@@ -3,6 +3,7 @@
 // numbers (read once from the resolved scene, so the step loop never touches protobuf).
 #include <cstdint>
 
+#include "gel/compression.hpp"
 #include "gel/v1/scene.pb.h"
 
 namespace gel {
@@ -22,6 +23,9 @@ struct CompressionSettings {
 };
 
 // From a scene already passed through resolve_compression_scene.
-CompressionSettings compression_settings(const gel::v1::Scene& resolved);
+CompressionSettings compression_settings(const gel::v1::Compression& resolved);
+
+// equilibrium_reached() on the plain settings (the protocol's form).
+bool equilibrium_reached(const EquilibriumSample& sample, const CompressionSettings& settings);
 
 }  // namespace gel

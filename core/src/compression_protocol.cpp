@@ -229,7 +229,7 @@ class CompressionRun {
       : system_(std::move(system)),
         curve_(std::move(curve)),
         state_(state),
-        settings_(compression_settings(curve_.scene())),
+        settings_(compression_settings(curve_.scene().compression())),
         options_(options),
         targets_(compression_targets(state.phi0, settings_.w0, settings_.phi_max, settings_.steps)),
         session_start_(Clock::now()),
@@ -320,24 +320,17 @@ class CompressionRun {
     if (system_.step_count() >= state_.next_exam_step) examine();
   }
 
-  // MODEL.md's test: |P_top - P_bot|/P < A, |P - P'|/P < B, no bond broke since the previous
-  // test. Below the stress floor (P and P' both) the relative tests are meaningless: the step
-  // counts as equilibrated when no free particle moves faster than rest_speed and no bond broke.
-  bool at_equilibrium(const WallStress& stress) const {
-    const bool no_breaks = system_.events().normal == state_.breaks_at_previous;
-    if (!no_breaks) return false;
-    const double p = std::abs(stress.p);
-    if (p < settings_.stress_floor && std::abs(state_.previous_p) < settings_.stress_floor)
-      return system_.max_speed() < settings_.rest_speed;
-    return std::abs(stress.p_top - stress.p_bottom) < settings_.a_tolerance * p &&
-           std::abs(stress.p - state_.previous_p) < settings_.b_tolerance * p;
-  }
-
   void examine() {
     const WallStress stress = system_.wall_stress();
     require_finite_state("P_top", stress.p_top);
     require_finite_state("P_bot", stress.p_bottom);
-    if (at_equilibrium(stress)) return finish_target(true);
+    EquilibriumSample sample;
+    sample.p_top = stress.p_top;
+    sample.p_bot = stress.p_bottom;
+    sample.previous_p = state_.previous_p;
+    sample.bond_broke = system_.events().normal != state_.breaks_at_previous;
+    sample.max_speed = system_.max_speed();
+    if (equilibrium_reached(sample, settings_)) return finish_target(true);
     if (system_.time() - state_.wait_start_time >= settings_.max_wait_time) return finish_target(false);
     state_.previous_p = stress.p;
     state_.breaks_at_previous = system_.events().normal;
@@ -381,6 +374,8 @@ class CompressionRun {
     row.set_drag_energy(system_.energy().drag);
     row.set_wall_work(system_.energy().wall_work);
     row.set_kinetic_energy(system_.kinetic_energy());
+    row.set_bond_creation_energy(system_.energy().created);
+    row.set_absorbed_by_walls(system_.energy().absorbed_by_walls);
     for (const double value : {row.p(), row.stored_energy(), row.dissipated_energy(), row.kinetic_energy(), row.phi()})
       require_finite_state("a recorded observable", value);
     if (!options_.out_dir.empty() && options_.write_snapshots) {
@@ -463,6 +458,20 @@ class CompressionRun {
 };
 
 }  // namespace
+
+bool equilibrium_reached(const EquilibriumSample& sample, const CompressionSettings& settings) {
+  if (sample.bond_broke) return false;
+  const double p = 0.5 * (sample.p_top + sample.p_bot);
+  const double scale = std::abs(p);
+  if (scale < settings.stress_floor && std::abs(sample.previous_p) < settings.stress_floor)
+    return sample.max_speed < settings.rest_speed;
+  return std::abs(sample.p_top - sample.p_bot) < settings.a_tolerance * scale &&
+         std::abs(p - sample.previous_p) < settings.b_tolerance * scale;
+}
+
+bool equilibrium_reached(const EquilibriumSample& sample, const gel::v1::Compression& compression) {
+  return equilibrium_reached(sample, compression_settings(compression));
+}
 
 bool has_checkpoint(const std::string& out_dir) {
   return !out_dir.empty() && std::filesystem::is_regular_file(checkpoint_path(out_dir));

@@ -215,8 +215,7 @@ std::vector<double> compression_targets(double phi0, double w0, double phi_max, 
   return targets;
 }
 
-CompressionSettings compression_settings(const gel::v1::Scene& resolved) {
-  const gel::v1::Compression& c = resolved.compression();
+CompressionSettings compression_settings(const gel::v1::Compression& c) {
   CompressionSettings s;
   s.w0 = c.w0();
   s.phi_max = c.phi_max();

@@ -65,6 +65,8 @@ nlohmann::json curve_row_to_json(const gel::v1::CurveRow& row) {
   j["drag_energy"] = row.drag_energy();
   j["wall_work"] = row.wall_work();
   j["kinetic_energy"] = row.kinetic_energy();
+  j["bond_creation_energy"] = row.bond_creation_energy();
+  j["absorbed_by_walls"] = row.absorbed_by_walls();
   j["phi_profile"] = std::vector<double>(row.phi_profile().begin(), row.phi_profile().end());
   j["snapshot"] = row.snapshot();
   return j;
@@ -95,6 +97,8 @@ gel::v1::CurveRow curve_row_from_json(const nlohmann::json& j) {
   row.set_drag_energy(optional_field<double>(j, "drag_energy", 0.0));
   row.set_wall_work(optional_field<double>(j, "wall_work", 0.0));
   row.set_kinetic_energy(optional_field<double>(j, "kinetic_energy", 0.0));
+  row.set_bond_creation_energy(optional_field<double>(j, "bond_creation_energy", 0.0));
+  row.set_absorbed_by_walls(optional_field<double>(j, "absorbed_by_walls", 0.0));
   for (const double phi : optional_field<std::vector<double>>(j, "phi_profile", {})) row.add_phi_profile(phi);
   row.set_snapshot(optional_field<std::string>(j, "snapshot", ""));
   return row;
@@ -126,7 +130,8 @@ std::string curve_to_csv(const gel::v1::Curve& curve) {
   out << "k,phi [1],target_phi [1],P [F0/a^2],P_top [F0/a^2],P_bot [F0/a^2],contact_number [1],"
          "stored_energy [F0 a],dissipated_energy [F0 a],ruptures_normal [count],ruptures_sliding [count],"
          "ruptures_rolling [count],bonds_created [count],equilibrated [0/1],steps [count],sim_time [t0],"
-         "wall_seconds [s],drag_energy [F0 a],wall_work [F0 a],kinetic_energy [F0 a],snapshot\n";
+         "wall_seconds [s],drag_energy [F0 a],wall_work [F0 a],kinetic_energy [F0 a],"
+         "bond_creation_energy [F0 a],absorbed_by_walls [F0 a],snapshot\n";
   for (const gel::v1::CurveRow& r : curve.rows()) {
     out << r.k() << ',' << exact(r.phi()) << ',' << exact(r.target_phi()) << ',' << exact(r.p()) << ','
         << exact(r.p_top()) << ',' << exact(r.p_bot()) << ',' << exact(r.contact_number()) << ','
@@ -134,7 +139,8 @@ std::string curve_to_csv(const gel::v1::Curve& curve) {
         << r.ruptures().sliding() << ',' << r.ruptures().rolling() << ',' << r.ruptures().created() << ','
         << (r.equilibrated() ? 1 : 0) << ',' << r.steps() << ',' << exact(r.sim_time()) << ','
         << exact(r.wall_seconds()) << ',' << exact(r.drag_energy()) << ',' << exact(r.wall_work()) << ','
-        << exact(r.kinetic_energy()) << ',' << r.snapshot() << '\n';
+        << exact(r.kinetic_energy()) << ',' << exact(r.bond_creation_energy()) << ','
+        << exact(r.absorbed_by_walls()) << ',' << r.snapshot() << '\n';
   }
   return out.str();
 }

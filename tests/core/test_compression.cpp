@@ -125,6 +125,43 @@ TEST(CompressionScene, PaperPresetsCarryTheReferenceValues) {
   EXPECT_EQ(scene_preset_names().size(), 3u);
 }
 
+// Each criterion alone withholds equilibrium; a broken bond delays it even when the stresses
+// are balanced and steady.
+TEST(CompressionEquilibrium, NeedsAllThreeCriteria) {
+  const gel::v1::Compression c = resolve_compression_scene(tiny_scene()).compression();
+  const double a = c.a_tolerance(), b = c.b_tolerance();
+  EquilibriumSample steady;
+  steady.p_top = steady.p_bot = steady.previous_p = 1.0;
+  steady.max_speed = 1.0;  // irrelevant above the stress floor
+  EXPECT_TRUE(equilibrium_reached(steady, c));
+  EquilibriumSample broke = steady;
+  broke.bond_broke = true;
+  EXPECT_FALSE(equilibrium_reached(broke, c));
+  EquilibriumSample unbalanced = steady;
+  unbalanced.p_top = 1.0 + 0.6 * a;
+  unbalanced.p_bot = 1.0 - 0.6 * a;  // P = 1, |P_top - P_bot| / P = 1.2 A
+  EXPECT_FALSE(equilibrium_reached(unbalanced, c));
+  unbalanced.p_top = 1.0 + 0.4 * a;
+  unbalanced.p_bot = 1.0 - 0.4 * a;
+  EXPECT_TRUE(equilibrium_reached(unbalanced, c));
+  EquilibriumSample drifting = steady;
+  drifting.previous_p = 1.0 - 1.1 * b;
+  EXPECT_FALSE(equilibrium_reached(drifting, c));
+  drifting.previous_p = 1.0 - 0.9 * b;
+  EXPECT_TRUE(equilibrium_reached(drifting, c));
+  // Below the stress floor: at rest or not.
+  EquilibriumSample free;
+  free.p_top = free.p_bot = 0.1 * c.stress_floor();
+  free.previous_p = 0.0;
+  free.max_speed = 0.5 * c.rest_speed();
+  EXPECT_TRUE(equilibrium_reached(free, c));
+  free.max_speed = 2.0 * c.rest_speed();
+  EXPECT_FALSE(equilibrium_reached(free, c));
+  free.max_speed = 0;
+  free.bond_broke = true;
+  EXPECT_FALSE(equilibrium_reached(free, c));
+}
+
 TEST(CompressionScene, InvalidFieldsAreRejectedByName) {
   auto with = [](auto change) {
     gel::v1::Scene scene = tiny_scene();
@@ -198,6 +235,13 @@ TEST(Compression, QuickPresetRunsToTheEnd) {
     double mean = 0;
     for (const double phi : row.phi_profile()) mean += phi / row.phi_profile_size();
     EXPECT_NEAR(mean, row.phi(), 1e-9);
+    // Energy balance (README "Energy"): what the walls did, plus the energy of bonds formed at
+    // overlap, is stored, released by ruptures, taken by drag, kinetic or absorbed on sticking.
+    // Tolerance 1% of the wall work: the trapezoidal quadrature of wall work and drag is O(dt^2).
+    const double supplied = row.wall_work() + row.bond_creation_energy();
+    const double accounted = row.stored_energy() + row.dissipated_energy() + row.drag_energy() +
+                             row.kinetic_energy() + row.absorbed_by_walls();
+    EXPECT_NEAR(accounted, supplied, 0.01 * std::abs(row.wall_work()) + 1e-12);
     if (k == 0) continue;
     EXPECT_NEAR(row.phi(), targets[k - 1], 1e-9 * targets[k - 1]);  // walls stop at the target
     EXPECT_DOUBLE_EQ(row.target_phi(), targets[k - 1]);

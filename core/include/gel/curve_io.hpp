@@ -6,7 +6,8 @@
 //                        "stored_energy", "dissipated_energy",
 //                        "ruptures": {"normal", "sliding", "rolling"}, "bonds_created",
 //                        "equilibrated", "steps", "sim_time", "wall_seconds", "drag_energy",
-//                        "wall_work", "kinetic_energy", "phi_profile": [...], "snapshot"}]}
+//                        "wall_work", "kinetic_energy", "bond_creation_energy",
+//                        "absorbed_by_walls", "phi_profile": [...], "snapshot"}]}
 // curve.csv: one row per equilibrium, the header names every column with its unit
 // ("name [unit]"; the profile is in profiles.csv). read_curve reads curve.json.
 #include <string>
