@@ -2,9 +2,14 @@
 // against a result known in closed form: the lens area of two disks, a pixel-exact lattice, the
 // two-point function of a Boolean model of disks, uncorrelated pixels, synthetic power laws,
 // planted regime boundaries.
+#include <cairo.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,6 +21,9 @@
 #include "gel/analysis/density_field.hpp"
 #include "gel/analysis/fits.hpp"
 #include "gel/analysis/fluctuation.hpp"
+#include "gel/analysis/pictures.hpp"
+#include "gel/analysis/run_analysis.hpp"
+#include "gel/analysis/structure.hpp"
 #include "gel/configuration.hpp"
 #include "gel/errors.hpp"
 #include "gel/generator.hpp"
@@ -138,7 +146,9 @@ TEST(Correlation, UncorrelatedPixelsGiveOneAlsoBetweenWalls) {
     // A structureless field is space-filling: D_f = 2.
     const DfProfile df = fractal_dimension_profile(corr.r, corr.c);
     for (std::size_t i = 0; i < df.r.size(); ++i) {
-      if (df.r[i] > 5) EXPECT_NEAR(df.df[i], 2.0, 0.1) << df.r[i];
+      if (df.r[i] > 5) {
+        EXPECT_NEAR(df.df[i], 2.0, 0.1) << df.r[i];
+      }
     }
   }
 }
@@ -151,7 +161,9 @@ TEST(Correlation, PixelSizeChangesCOnlyBelowAParticleDiameter) {
   const Correlation fine = density_correlation(pixelise(gel, kDefaultPixel / 2), {kDefaultPixel, 0});
   ASSERT_EQ(coarse.r.size(), fine.r.size());
   for (std::size_t i = 0; i < coarse.r.size(); ++i) {
-    if (coarse.r[i] >= 2 && coarse.r[i] <= 20) EXPECT_NEAR(fine.c[i] / coarse.c[i], 1.0, 0.03) << coarse.r[i];
+    if (coarse.r[i] >= 2 && coarse.r[i] <= 20) {
+      EXPECT_NEAR(fine.c[i] / coarse.c[i], 1.0, 0.03) << coarse.r[i];
+    }
   }
   const DfFit a = fit_fractal_dimension(coarse.r, coarse.c);
   const DfFit b = fit_fractal_dimension(fine.r, fine.c);
@@ -357,8 +369,111 @@ TEST(Ensemble, MeanAndStdOfTwoKnownCurves) {
   EXPECT_DOUBLE_EQ(*xi.mean, 5.0);
   EXPECT_NEAR(*xi.std, std::sqrt(2.0), 1e-12);
   gel::v1::Curve other = planted_curve();
-  other.mutable_rows(2)->set_target_phi(0.5);
+  other.mutable_rows(2)->set_k(7);
   EXPECT_THROW(curve_ensemble({a, other}), InvalidArgument);
+}
+
+std::string temp_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("gel_analysis_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+// Colour of device pixel (x, y) of a PNG, as 0..255 per channel.
+struct Pixel {
+  int r, g, b;
+};
+Pixel png_pixel(cairo_surface_t* image, int x, int y) {
+  const unsigned char* data = cairo_image_surface_get_data(image);
+  const int stride = cairo_image_surface_get_stride(image);
+  const auto word = *reinterpret_cast<const std::uint32_t*>(data + y * stride + 4 * x);
+  return {static_cast<int>((word >> 16) & 255), static_cast<int>((word >> 8) & 255), static_cast<int>(word & 255)};
+}
+void expect_colour(const Pixel& p, const Rgb& c) {
+  EXPECT_NEAR(p.r, 255 * c.r, 2);
+  EXPECT_NEAR(p.g, 255 * c.g, 2);
+  EXPECT_NEAR(p.b, 255 * c.b, 2);
+}
+
+TEST(Pictures, SnapshotHasTheBoxSizeAndParticlesWhereTheyAre) {
+  // 40 a x 20 a between walls at y = 0 and 20: with one radius of margin above and below the
+  // drawn region is 40 x 22 a, 400 px wide at size 400 (10 px per a), y pointing up.
+  Configuration c;
+  c.lx = 40, c.ly = 20, c.periodic_y = false;
+  c.add_particle(10, 10);                       // free, unbonded
+  c.add_particle(30, 1);                        // on the bottom wall
+  c.add_particle(20, 15), c.add_particle(22, 15);
+  c.add_bond_at_contact(2, 3);
+  c.wall = {kNoWall, kBottomWall, kNoWall, kNoWall};
+  c.wall_bottom = 0, c.wall_top = 20;
+  const std::string dir = temp_dir("snapshot");
+  const std::string png = dir + "/s.png", svg = dir + "/s.svg";
+  render_snapshot(c, png, {400, true, 3.0, ""});
+  cairo_surface_t* image = cairo_image_surface_create_from_png(png.c_str());
+  ASSERT_EQ(cairo_surface_status(image), CAIRO_STATUS_SUCCESS);
+  EXPECT_EQ(cairo_image_surface_get_width(image), 400);
+  EXPECT_EQ(cairo_image_surface_get_height(image), 220);
+  auto device = [](double x, double y) { return std::pair<int, int>(static_cast<int>(x * 10), static_cast<int>((21 - y) * 10)); };
+  auto [fx, fy] = device(10, 10);
+  expect_colour(png_pixel(image, fx, fy), kParticleColour);
+  auto [wx, wy] = device(30, 1);
+  expect_colour(png_pixel(image, wx, wy), kWallParticleColour);
+  auto [bx, by] = device(21, 15);  // the contact point, on the bond line
+  expect_colour(png_pixel(image, bx, by), kBondColour);
+  auto [ex, ey] = device(5, 5);    // empty space
+  const Pixel empty = png_pixel(image, ex, ey);
+  EXPECT_EQ(empty.r + empty.g + empty.b, 3 * 255);
+  cairo_surface_destroy(image);
+  render_snapshot(c, svg);
+  std::ifstream in(svg);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("<svg"), std::string::npos);
+  EXPECT_THROW(render_snapshot(c, dir + "/s.jpg"), InvalidArgument);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Pictures, GnuplotDrawsALogLogPlot) {
+  if (find_gnuplot().empty()) GTEST_SKIP() << "gnuplot is not installed";
+  PlotFigure f;
+  f.title = "test";
+  f.log_x = f.log_y = true;
+  f.width = 320, f.height = 240;
+  PlotSeries s{"data", {0.1, 0.2, 0.4}, {1, 8, 64}, {0.1, 0.5, 3}, "linespoints"};
+  f.series.push_back(s);
+  f.series.push_back({"skipped on log axes", {0.1, 0.2}, {-1, 0}, {}, "lines"});
+  f.vertical_lines.push_back({0.3, "boundary"});
+  const std::string dir = temp_dir("plot");
+  render_plot(f, dir + "/p.png");
+  cairo_surface_t* image = cairo_image_surface_create_from_png((dir + "/p.png").c_str());
+  ASSERT_EQ(cairo_surface_status(image), CAIRO_STATUS_SUCCESS);
+  EXPECT_EQ(cairo_image_surface_get_width(image), 320);
+  EXPECT_EQ(cairo_image_surface_get_height(image), 240);
+  int dark = 0;
+  for (int y = 0; y < 240; ++y)
+    for (int x = 0; x < 320; ++x) {
+      const Pixel p = png_pixel(image, x, y);
+      dark += p.r + p.g + p.b < 300;
+    }
+  EXPECT_GT(dark, 200);  // axes, text and the curve
+  cairo_surface_destroy(image);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/gnuplot/p.gp"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Structure, AnalysisOfAGeneratedGelHasEveryPart) {
+  const Configuration gel = quick_gel(1);
+  const StructureAnalysis a = analyse_structure(gel);
+  EXPECT_NEAR(a.phi, gel.packing_fraction(), 1e-15);
+  ASSERT_TRUE(a.df_fit.has_value());
+  EXPECT_GT(a.df_fit->df, 1.3);
+  EXPECT_LT(a.df_fit->df, 1.8);
+  EXPECT_FALSE(a.df_profile.r.empty());
+  EXPECT_EQ(a.profile.phi.size(), 20u);
+  const nlohmann::json j = to_json(a);
+  for (const char* key : {"phi", "correlation", "fractal_dimension_profile", "fractal_dimension_fit", "xi_05"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["correlation"]["r"].size(), j["correlation"]["C"].size());
 }
 
 }  // namespace

@@ -65,13 +65,13 @@ struct MeanStd {
 };
 MeanStd mean_std(const std::vector<std::vector<double>>& members);
 
-// Ensemble of curves of the same protocol on several seeds: rows are matched by position
-// (row k of every member is the k-th equilibrium of the same schedule) up to the shortest
-// member. Observables: "phi", "target_phi", "P", "P_top", "P_bot", "contact_number",
+// Ensemble of curves of the same protocol on several seeds: rows are matched by their index k
+// (the k-th equilibrium of each member's schedule; phi_0, and so every phi_k, differs a little
+// between seeds, and phi is averaged like the other observables) up to the shortest member. Observables: "phi", "target_phi", "P", "P_top", "P_bot", "contact_number",
 // "stored_energy", "dissipated_energy", "ruptures_normal", "ruptures_sliding",
 // "ruptures_rolling", "bonds_created", per row; "phi_mid", "stored_rate", "dissipated_rate",
 // "gamma_normal", "gamma_sliding", "gamma_rolling", per interval; phi_profile per row and slice.
-// Throws InvalidArgument ("ensemble") with no member or when members' targets differ.
+// Throws InvalidArgument ("ensemble") with no member or when members' row indices k differ.
 struct CurveEnsemble {
   int members = 0;
   std::map<std::string, MeanStd> rows;

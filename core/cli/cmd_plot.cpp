@@ -1,0 +1,60 @@
+// gelsim plot: every picture of a compression run or of an ensemble of runs.
+//   gelsim plot DIR... [--out PICDIR] [--svg] [--fit-range PHIMIN,PHIMAX] [--no-snapshots]
+// PICDIR defaults to DIR/plots of the first DIR; analysis.json (what analyze-run --json prints)
+// is written next to the pictures.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "command.hpp"
+#include "gel/analysis/run_analysis.hpp"
+#include "gel/configuration.hpp"
+#include "gel/errors.hpp"
+
+namespace {
+
+struct PlotOptions {
+  std::vector<std::string> dirs;
+  std::string out, fit_range;
+  bool svg = false, no_snapshots = false;
+  double pixel = gel::analysis::kDefaultPixel;
+};
+
+int run_plot(const PlotOptions& o) {
+  gel::analysis::RunAnalysisOptions options;
+  options.structure.pixel = o.pixel;
+  if (!o.fit_range.empty()) {
+    std::istringstream in(o.fit_range);
+    char comma = 0;
+    if (!(in >> options.fit_phi_min >> comma >> options.fit_phi_max) || comma != ',' || !(options.fit_phi_min < options.fit_phi_max))
+      throw gel::InvalidArgument("fit_range", "expected PHIMIN,PHIMAX, got '" + o.fit_range + "'");
+  }
+  const std::string out = o.out.empty() ? (std::filesystem::path(o.dirs[0]) / "plots").string() : o.out;
+  const gel::analysis::RunAnalysis run = gel::analysis::analyse_runs(o.dirs, options);
+  gel::analysis::PictureOptions pictures;
+  pictures.svg = o.svg;
+  pictures.snapshots = !o.no_snapshots;
+  const auto written = gel::analysis::render_run_pictures(run, out, pictures);
+  gel::write_file_atomically((std::filesystem::path(out) / "analysis.json").string(), gel::analysis::to_json(run).dump(1) + "\n");
+  for (const auto& path : written) std::cout << path << "\n";
+  std::cout << (std::filesystem::path(out) / "analysis.json").string() << "\n";
+  return 0;
+}
+
+const gelsim::Registrar plot_registrar{
+    "plot", "Draw every picture of a compression run or an ensemble (gnuplot plots, cairo snapshots)",
+    [](CLI::App& sub) -> std::function<int()> {
+      auto o = std::make_shared<PlotOptions>();
+      sub.add_option("dir", o->dirs, "compression output directories (several: an ensemble)")->required();
+      sub.add_option("--out", o->out, "picture folder (default DIR/plots)");
+      sub.add_flag("--svg", o->svg, "SVG instead of PNG");
+      sub.add_option("--fit-range", o->fit_range, "PHIMIN,PHIMAX of the fits (default: all rows after k = 0)");
+      sub.add_option("--pixel", o->pixel, "pixel size [a] of the structure analyses (default 0.25)");
+      sub.add_flag("--no-snapshots", o->no_snapshots, "plots only");
+      return [o] { return run_plot(*o); };
+    }};
+
+}  // namespace

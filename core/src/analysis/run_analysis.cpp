@@ -1,0 +1,204 @@
+#include "gel/analysis/run_analysis.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include "gel/configuration.hpp"
+#include "gel/curve_io.hpp"
+#include "gel/errors.hpp"
+
+namespace gel::analysis {
+namespace {
+
+nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json optional_number(const std::optional<double>& v) { return v ? number(*v) : nlohmann::json(nullptr); }
+
+// The ensemble-mean curve: each row holds the member means, so that one set of curve
+// functions serves a run and an ensemble.
+gel::v1::Curve mean_curve(const std::vector<gel::v1::Curve>& curves, const CurveEnsemble& e) {
+  gel::v1::Curve mean;
+  mean.set_particles(curves[0].particles());
+  *mean.mutable_scene() = curves[0].scene();
+  mean.set_program_version(curves[0].program_version());
+  const std::size_t rows = e.rows.at("phi").mean.size();
+  auto value = [&](const char* name, std::size_t k) { return e.rows.at(name).mean[k]; };
+  for (std::size_t k = 0; k < rows; ++k) {
+    auto* row = mean.add_rows();
+    row->set_k(curves[0].rows(static_cast<int>(k)).k());
+    row->set_phi(value("phi", k));
+    row->set_target_phi(value("target_phi", k));
+    row->set_p(value("P", k));
+    row->set_p_top(value("P_top", k));
+    row->set_p_bot(value("P_bot", k));
+    row->set_contact_number(value("contact_number", k));
+    row->set_stored_energy(value("stored_energy", k));
+    row->set_dissipated_energy(value("dissipated_energy", k));
+    // Mean counts are kept as rounded integers; the rates use them through differences only.
+    row->mutable_ruptures()->set_normal(std::llround(value("ruptures_normal", k)));
+    row->mutable_ruptures()->set_sliding(std::llround(value("ruptures_sliding", k)));
+    row->mutable_ruptures()->set_rolling(std::llround(value("ruptures_rolling", k)));
+    row->mutable_ruptures()->set_created(std::llround(value("bonds_created", k)));
+    for (double v : e.phi_profile[k].mean) row->add_phi_profile(v);
+    row->set_snapshot(curves[0].rows(static_cast<int>(k)).snapshot());
+  }
+  return mean;
+}
+
+}  // namespace
+
+CurveAnalysis analyse_curves(const std::vector<gel::v1::Curve>& curves, const RunAnalysisOptions& options) {
+  CurveAnalysis a;
+  a.ensemble = curve_ensemble(curves);
+  a.mean_curve = mean_curve(curves, a.ensemble);
+  std::vector<double> phi, p;
+  for (int k = 0; k < a.mean_curve.rows_size(); ++k) {
+    phi.push_back(a.mean_curve.rows(k).phi());
+    p.push_back(a.mean_curve.rows(k).p());
+  }
+  double lo = options.fit_phi_min, hi = options.fit_phi_max;
+  if (lo <= 0 && hi <= 0) {
+    lo = phi.size() > 1 ? phi[1] : 0.0;
+    hi = phi.empty() ? 0.0 : phi.back();
+  } else if (hi <= 0) {
+    hi = phi.empty() ? 0.0 : phi.back();
+  }
+  try {
+    a.power_law = fit_power_law(phi, p, lo, hi);
+  } catch (const InvalidArgument& error) {
+    a.power_law_error = error.what();
+  }
+  try {
+    a.gel_point = fit_gel_point(phi, p, lo, hi);
+  } catch (const InvalidArgument& error) {
+    a.gel_point_error = error.what();
+  }
+  a.increments = curve_increments(a.mean_curve);
+  a.regimes = split_regimes(a.increments, options.multi_mode_fraction);
+  return a;
+}
+
+RunAnalysis analyse_runs(const std::vector<std::string>& dirs, const RunAnalysisOptions& options) {
+  if (dirs.empty()) throw InvalidArgument("path", "no run directory given");
+  RunAnalysis run;
+  run.dirs = dirs;
+  for (const auto& dir : dirs) run.curves.push_back(read_curve(dir));
+  run.curve = analyse_curves(run.curves, options);
+  if (!options.structures) return run;
+  const int rows = run.curve.mean_curve.rows_size();
+  std::vector<double> xi_phi, xi_value;
+  for (int k = 0; k < rows; ++k) {
+    RowStructure row;
+    row.k = run.curve.mean_curve.rows(k).k();
+    row.phi = run.curve.mean_curve.rows(k).phi();
+    std::vector<std::vector<double>> c_members, df_members;
+    std::vector<std::optional<double>> df_fits, xis;
+    const auto start = std::chrono::steady_clock::now();
+    for (std::size_t m = 0; m < dirs.size(); ++m) {
+      const std::string& name = run.curves[m].rows(k).snapshot();
+      if (name.empty()) continue;
+      const std::string path = (std::filesystem::path(dirs[m]) / name).string();
+      if (!std::filesystem::exists(path)) continue;
+      const StructureAnalysis s = analyse_structure(read_configuration(path), options.structure);
+      row.snapshots.push_back(path);
+      if (row.r_c.empty()) row.r_c = s.correlation.r, row.r_df = s.df_profile.r;
+      c_members.push_back(s.correlation.c);
+      df_members.push_back(s.df_profile.df);
+      df_fits.push_back(s.df_fit ? std::optional<double>(s.df_fit->df) : std::nullopt);
+      xis.push_back(s.xi_05);
+    }
+    if (row.snapshots.empty()) continue;
+    row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    // The walls move, so bins differ between rows but not between members of one row (same
+    // schedule, same box): the element-wise mean is over equal radii.
+    row.c = mean_std(c_members);
+    row.df = mean_std(df_members);
+    row.r_c.resize(row.c.mean.size());
+    row.r_df.resize(row.df.mean.size());
+    row.df_fit = mean_std(df_fits);
+    row.xi_05 = mean_std(xis);
+    if (row.xi_05.mean) xi_phi.push_back(row.phi), xi_value.push_back(*row.xi_05.mean);
+    run.structure.push_back(std::move(row));
+  }
+  if (xi_phi.size() >= 3) {
+    try {
+      run.xi_power_law = fit_power_law(xi_phi, xi_value, xi_phi.front(), xi_phi.back());
+    } catch (const InvalidArgument&) {
+    }
+  }
+  return run;
+}
+
+nlohmann::json to_json(const PowerLawFit& f) {
+  return {{"prefactor", number(f.prefactor)}, {"exponent", number(f.exponent)},
+          {"exponent_stderr", number(f.exponent_stderr)}, {"log_prefactor_stderr", number(f.log_prefactor_stderr)},
+          {"phi_min", f.x_min}, {"phi_max", f.x_max}, {"points", f.points}, {"rms_log_residual", number(f.rms_log_residual)}};
+}
+
+nlohmann::json to_json(const GelPointFit& f) {
+  return {{"prefactor", number(f.prefactor)}, {"phi_g", number(f.phi_g)}, {"exponent", number(f.exponent)},
+          {"log_prefactor_stderr", number(f.log_prefactor_stderr)}, {"phi_g_stderr", number(f.phi_g_stderr)},
+          {"exponent_stderr", number(f.exponent_stderr)}, {"phi_min", f.x_min}, {"phi_max", f.x_max},
+          {"points", f.points}, {"iterations", f.iterations}, {"converged", f.converged},
+          {"rms_log_residual", number(f.rms_log_residual)}};
+}
+
+nlohmann::json to_json(const MeanStd& v) { return {{"mean", v.mean}, {"std", v.std}, {"members", v.members}}; }
+
+nlohmann::json to_json(const OptionalMeanStd& v) {
+  return {{"mean", optional_number(v.mean)}, {"std", optional_number(v.std)}, {"present", v.present}, {"missing", v.missing}};
+}
+
+nlohmann::json to_json(const CurveAnalysis& a) {
+  nlohmann::json j;
+  j["members"] = a.ensemble.members;
+  nlohmann::json rows = nlohmann::json::object();
+  for (const auto& [name, v] : a.ensemble.rows) rows[name] = to_json(v);
+  j["rows"] = rows;
+  nlohmann::json intervals = nlohmann::json::object();
+  for (const auto& [name, v] : a.ensemble.intervals) intervals[name] = to_json(v);
+  j["intervals"] = intervals;
+  j["power_law"] = a.power_law ? to_json(*a.power_law) : nlohmann::json(nullptr);
+  if (!a.power_law) j["power_law_error"] = a.power_law_error;
+  j["gel_point"] = a.gel_point ? to_json(*a.gel_point) : nlohmann::json(nullptr);
+  if (!a.gel_point) j["gel_point_error"] = a.gel_point_error;
+  nlohmann::json regimes;
+  regimes["single_mode_start_phi"] = optional_number(a.regimes.single_mode_start_phi);
+  regimes["multi_mode_start_phi"] = optional_number(a.regimes.multi_mode_start_phi);
+  regimes["disagreements"] = a.regimes.disagreements;
+  nlohmann::json ranges = nlohmann::json::object();
+  for (int r = 0; r < 3; ++r)
+    ranges[regime_name(static_cast<Regime>(r))] =
+        a.regimes.range[r] ? nlohmann::json::array({a.regimes.range[r]->first, a.regimes.range[r]->second}) : nlohmann::json(nullptr);
+  regimes["ranges"] = ranges;
+  nlohmann::json per_interval = nlohmann::json::array();
+  for (std::size_t i = 0; i < a.increments.size(); ++i) {
+    const Increment& inc = a.increments[i];
+    per_interval.push_back({{"k", inc.row}, {"phi_lo", inc.phi_lo}, {"phi_hi", inc.phi_hi},
+                            {"stored_rate", inc.stored_rate}, {"dissipated_rate", inc.dissipated_rate},
+                            {"gamma_normal", inc.gamma_normal}, {"gamma_sliding", inc.gamma_sliding},
+                            {"gamma_rolling", inc.gamma_rolling}, {"label", regime_name(a.regimes.label[i])},
+                            {"regime", regime_name(a.regimes.assigned[i])}});
+  }
+  regimes["intervals"] = per_interval;
+  j["regimes"] = regimes;
+  return j;
+}
+
+nlohmann::json to_json(const RunAnalysis& run) {
+  nlohmann::json j = to_json(run.curve);
+  j["dirs"] = run.dirs;
+  nlohmann::json rows = nlohmann::json::array();
+  for (const auto& row : run.structure) {
+    rows.push_back({{"k", row.k}, {"phi", row.phi}, {"snapshots", row.snapshots},
+                    {"correlation", {{"r", row.r_c}, {"C", row.c.mean}, {"C_std", row.c.std}}},
+                    {"fractal_dimension_profile", {{"r", row.r_df}, {"D_f", row.df.mean}, {"D_f_std", row.df.std}}},
+                    {"fractal_dimension_fit", to_json(row.df_fit)}, {"xi_05", to_json(row.xi_05)},
+                    {"seconds", row.seconds}});
+  }
+  j["structure"] = rows;
+  j["xi_power_law"] = run.xi_power_law ? to_json(*run.xi_power_law) : nlohmann::json(nullptr);
+  return j;
+}
+
+}  // namespace gel::analysis

@@ -1,0 +1,203 @@
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "gel/analysis/pictures.hpp"
+#include "gel/analysis/run_analysis.hpp"
+#include "gel/configuration.hpp"
+
+namespace gel::analysis {
+namespace {
+
+std::string format(const char* fmt, double a, double b = 0, double c = 0) {
+  char buffer[160];
+  std::snprintf(buffer, sizeof buffer, fmt, a, b, c);
+  return buffer;
+}
+
+// Up to `count` indices spread evenly over [0, n), first and last included.
+std::vector<std::size_t> spread(std::size_t n, int count) {
+  std::vector<std::size_t> picked;
+  if (n == 0) return picked;
+  const std::size_t m = std::min<std::size_t>(n, static_cast<std::size_t>(std::max(1, count)));
+  for (std::size_t i = 0; i < m; ++i) {
+    const std::size_t index = m == 1 ? n - 1 : (i * (n - 1)) / (m - 1);
+    if (picked.empty() || picked.back() != index) picked.push_back(index);
+  }
+  return picked;
+}
+
+void add_regime_lines(PlotFigure& figure, const RegimeSplit& regimes) {
+  if (regimes.single_mode_start_phi) figure.vertical_lines.push_back({*regimes.single_mode_start_phi, "single-mode plastic from here"});
+  if (regimes.multi_mode_start_phi) figure.vertical_lines.push_back({*regimes.multi_mode_start_phi, "multi-mode plastic from here"});
+}
+
+}  // namespace
+
+std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::string& out_dir,
+                                             const PictureOptions& options) {
+  namespace fs = std::filesystem;
+  fs::create_directories(out_dir);
+  const std::string ext = options.svg ? ".svg" : ".png";
+  std::vector<std::string> written;
+  auto output = [&](const std::string& name) { return (fs::path(out_dir) / (name + ext)).string(); };
+  const CurveAnalysis& ca = run.curve;
+  const bool ensemble = ca.ensemble.members > 1;
+  const std::string members = ensemble ? format(" (mean +- std of %.0f runs)", ca.ensemble.members) : std::string();
+  const auto& rows = ca.ensemble.rows;
+  const std::vector<double>& phi = rows.at("phi").mean;
+
+  {  // P_y(phi)
+    PlotFigure f;
+    f.title = "Compressive yield stress" + members;
+    f.x_label = "packing fraction {/Symbol f}";
+    f.y_label = "P_y [F_0/a^2]";
+    f.log_x = f.log_y = true;
+    PlotSeries data{"P_y", phi, rows.at("P").mean, ensemble ? rows.at("P").std : std::vector<double>{}, "linespoints"};
+    f.series.push_back(data);
+    if (ca.power_law) {
+      PlotSeries fit{format("P = %.3g phi^{%.2f +- %.2f}", ca.power_law->prefactor, ca.power_law->exponent, ca.power_law->exponent_stderr), {}, {}, {}, "lines"};
+      for (int i = 0; i <= 50; ++i) {
+        const double x = ca.power_law->x_min * std::pow(ca.power_law->x_max / ca.power_law->x_min, i / 50.0);
+        fit.x.push_back(x), fit.y.push_back(ca.power_law->prefactor * std::pow(x, ca.power_law->exponent));
+      }
+      f.series.push_back(fit);
+    }
+    if (ca.gel_point) {
+      const auto& g = *ca.gel_point;
+      PlotSeries fit{format("P = C'(phi - %.3f)^{%.2f}", g.phi_g, g.exponent), {}, {}, {}, "lines"};
+      for (int i = 0; i <= 50; ++i) {
+        const double x = g.x_min * std::pow(g.x_max / g.x_min, i / 50.0);
+        fit.x.push_back(x), fit.y.push_back(g.prefactor * std::pow(x - g.phi_g, g.exponent));
+      }
+      f.series.push_back(fit);
+    }
+    add_regime_lines(f, ca.regimes);
+    render_plot(f, output("pressure"));
+    written.push_back(output("pressure"));
+  }
+  if (!run.structure.empty()) {
+    PlotFigure c, d;
+    c.title = "Density correlation" + members;
+    c.x_label = "r [a]";
+    c.y_label = "C(r)";
+    c.log_x = c.log_y = true;
+    d.title = "Fractal-dimension profile" + members;
+    d.x_label = "r [a]";
+    d.y_label = "D_f(r) = 2 + d ln C / d ln r";
+    d.log_x = true;
+    for (std::size_t i : spread(run.structure.size(), options.curves_per_plot)) {
+      const RowStructure& row = run.structure[i];
+      const std::string label = format("phi = %.3f", row.phi);
+      std::vector<double> r(row.r_c.begin() + 1, row.r_c.end()), cc(row.c.mean.begin() + 1, row.c.mean.end());
+      c.series.push_back({label, r, cc, {}, "lines"});
+      d.series.push_back({label, row.r_df, row.df.mean, {}, "lines"});
+    }
+    render_plot(c, output("correlation"));
+    render_plot(d, output("fractal_dimension"));
+    written.push_back(output("correlation"));
+    written.push_back(output("fractal_dimension"));
+
+    PlotFigure x;
+    x.title = "Correlation length xi^{(0.5)}" + members;
+    x.x_label = "packing fraction {/Symbol f}";
+    x.y_label = "xi^{(0.5)} [a]";
+    x.log_x = x.log_y = true;
+    PlotSeries xi{"xi^{(0.5)}", {}, {}, {}, "linespoints"};
+    std::vector<double> xi_std;
+    for (const auto& row : run.structure)
+      if (row.xi_05.mean) xi.x.push_back(row.phi), xi.y.push_back(*row.xi_05.mean), xi_std.push_back(row.xi_05.std.value_or(0));
+    if (ensemble) xi.y_error = xi_std;
+    x.series.push_back(xi);
+    if (run.xi_power_law) {
+      const auto& p = *run.xi_power_law;
+      PlotSeries fit{format("xi = %.3g phi^{%.2f +- %.2f}", p.prefactor, p.exponent, p.exponent_stderr), {}, {}, {}, "lines"};
+      for (int i = 0; i <= 50; ++i) {
+        const double v = p.x_min * std::pow(p.x_max / p.x_min, i / 50.0);
+        fit.x.push_back(v), fit.y.push_back(p.prefactor * std::pow(v, p.exponent));
+      }
+      x.series.push_back(fit);
+    }
+    render_plot(x, output("xi"));
+    written.push_back(output("xi"));
+  }
+  {
+    PlotFigure f;
+    f.title = "Mean contact number" + members;
+    f.x_label = "packing fraction {/Symbol f}";
+    f.y_label = "bonds per particle";
+    f.log_x = true;
+    f.series.push_back({"contact number", phi, rows.at("contact_number").mean,
+                        ensemble ? rows.at("contact_number").std : std::vector<double>{}, "linespoints"});
+    add_regime_lines(f, ca.regimes);
+    render_plot(f, output("contact_number"));
+    written.push_back(output("contact_number"));
+  }
+  const auto& iv = ca.ensemble.intervals;
+  {
+    PlotFigure f;
+    f.title = "Energy increments" + members;
+    f.x_label = "packing fraction {/Symbol f}";
+    f.y_label = "dE / d ln {/Symbol f} [F_0 a]";
+    f.log_x = true;
+    f.series.push_back({"stored", iv.at("phi_mid").mean, iv.at("stored_rate").mean,
+                        ensemble ? iv.at("stored_rate").std : std::vector<double>{}, "linespoints"});
+    f.series.push_back({"dissipated", iv.at("phi_mid").mean, iv.at("dissipated_rate").mean,
+                        ensemble ? iv.at("dissipated_rate").std : std::vector<double>{}, "linespoints"});
+    add_regime_lines(f, ca.regimes);
+    render_plot(f, output("energy_increments"));
+    written.push_back(output("energy_increments"));
+  }
+  {
+    PlotFigure f;
+    f.title = "Rupture rates by cause" + members;
+    f.x_label = "packing fraction {/Symbol f}";
+    f.y_label = "{/Symbol G} = (1/N) dN / d ln {/Symbol f}";
+    f.log_x = true;
+    for (const char* cause : {"normal", "sliding", "rolling"}) {
+      const std::string key = std::string("gamma_") + cause;
+      f.series.push_back({cause, iv.at("phi_mid").mean, iv.at(key).mean, ensemble ? iv.at(key).std : std::vector<double>{}, "linespoints"});
+    }
+    add_regime_lines(f, ca.regimes);
+    render_plot(f, output("rupture_rates"));
+    written.push_back(output("rupture_rates"));
+  }
+  if (!ca.ensemble.phi_profile.empty()) {
+    PlotFigure f;
+    f.title = "Packing-fraction profile along the compression axis" + members;
+    f.x_label = "height between the walls (0 = bottom, 1 = top)";
+    f.y_label = "{/Symbol f}(y)";
+    for (std::size_t k : spread(ca.ensemble.phi_profile.size(), options.curves_per_plot)) {
+      const MeanStd& p = ca.ensemble.phi_profile[k];
+      if (p.mean.empty()) continue;
+      PlotSeries s{format("phi = %.3f", phi[k]), {}, p.mean, ensemble ? p.std : std::vector<double>{}, "linespoints"};
+      for (std::size_t i = 0; i < p.mean.size(); ++i) s.x.push_back((i + 0.5) / p.mean.size());
+      f.series.push_back(s);
+    }
+    render_plot(f, output("profiles"));
+    written.push_back(output("profiles"));
+  }
+  if (options.snapshots && !run.curves.empty()) {
+    const fs::path folder = fs::path(out_dir) / "snapshots";
+    fs::create_directories(folder);
+    const gel::v1::Curve& first = run.curves[0];
+    for (int k = 0; k < first.rows_size(); ++k) {
+      const std::string& name = first.rows(k).snapshot();
+      if (name.empty()) continue;
+      const fs::path source = fs::path(run.dirs[0]) / name;
+      if (!fs::exists(source)) continue;
+      SnapshotStyle style;
+      style.size = options.snapshot_size;
+      for (const auto& row : run.structure)
+        if (row.k == first.rows(k).k() && !row.snapshots.empty() && row.snapshots[0] == source.string())
+          style.xi_circle = row.xi_05.mean;  // for one run the member's own value
+      style.title = format("k = %.0f   phi = %.3f   P = %.3g", first.rows(k).k(), first.rows(k).phi(), first.rows(k).p());
+      const std::string path = (folder / format("k_%03.0f", first.rows(k).k())).string() + ext;
+      render_snapshot(read_configuration(source.string()), path, style);
+      written.push_back(path);
+    }
+  }
+  return written;
+}
+
+}  // namespace gel::analysis

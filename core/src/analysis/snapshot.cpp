@@ -1,0 +1,134 @@
+#include <cairo-svg.h>
+#include <cairo.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+
+#include "gel/analysis/pictures.hpp"
+#include "gel/errors.hpp"
+
+namespace gel::analysis {
+namespace {
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && std::equal(suffix.rbegin(), suffix.rend(), s.rbegin(),
+                                                 [](char a, char b) { return std::tolower(a) == b; });
+}
+
+void set_colour(cairo_t* cr, const Rgb& c) { cairo_set_source_rgb(cr, c.r, c.g, c.b); }
+
+// Draws in configuration units: x to the right, y up, origin at the lower-left corner of the
+// region; `scale` device units per a.
+void draw(cairo_t* cr, const Configuration& config, const SnapshotStyle& style, double scale, double width,
+          double height, double y0) {
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_paint(cr);
+  cairo_save(cr);
+  cairo_translate(cr, 0, height);
+  cairo_scale(cr, scale, -scale);
+  cairo_translate(cr, 0, -y0);
+  cairo_rectangle(cr, 0, y0, config.lx, height / scale);
+  cairo_clip(cr);
+  const double lx = config.lx;
+  // Disks, with the image across the periodic x boundary when they cross it (and across y when
+  // periodic in y).
+  const bool periodic_y = config.periodic_y && !config.has_walls();
+  auto for_images = [&](double x, double y, double reach, auto&& fn) {
+    for (int ix = -1; ix <= 1; ++ix)
+      for (int iy = periodic_y ? -1 : 0; iy <= (periodic_y ? 1 : 0); ++iy) {
+        const double px = x + ix * lx, py = y + iy * config.ly;
+        if (px + reach < 0 || px - reach > lx) continue;
+        if (periodic_y && (py + reach < 0 || py - reach > config.ly)) continue;
+        fn(px, py);
+      }
+  };
+  for (std::size_t p = 0; p < config.size(); ++p) {
+    const bool on_wall = config.has_walls() && config.wall[p] != kNoWall;
+    set_colour(cr, on_wall ? kWallParticleColour : kParticleColour);
+    for_images(config.x[p], config.y[p], 1.0, [&](double px, double py) {
+      cairo_new_sub_path(cr);
+      cairo_arc(cr, px, py, 1.0, 0, 2 * M_PI);
+    });
+    cairo_fill(cr);
+  }
+  if (style.bonds && !config.bonds.empty()) {
+    set_colour(cr, kBondColour);
+    cairo_set_line_width(cr, 0.25);
+    cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
+    for (const auto& b : config.bonds) {
+      double dx, dy;
+      config.separation(b.i, b.j, dx, dy);
+      // From each end towards the other by the minimum image: a bond across the boundary shows
+      // as two halves, one at each side.
+      for (auto [from, sign] : {std::pair{b.i, 1.0}, std::pair{b.j, -1.0}}) {
+        const double x = config.x[from], y = config.y[from];
+        for_images(x, y, 2.5, [&](double px, double py) {
+          cairo_move_to(cr, px, py);
+          cairo_line_to(cr, px + 0.5 * sign * dx, py + 0.5 * sign * dy);
+        });
+      }
+    }
+    cairo_stroke(cr);
+  }
+  if (config.has_walls()) {
+    cairo_set_source_rgb(cr, 0.45, 0.45, 0.45);
+    cairo_rectangle(cr, 0, config.wall_bottom - 1.0, lx, 1.0);
+    cairo_rectangle(cr, 0, config.wall_top, lx, 1.0);
+    cairo_fill(cr);
+  }
+  if (style.xi_circle && *style.xi_circle > 0) {
+    cairo_set_source_rgb(cr, 0.95, 0.55, 0.05);
+    cairo_set_line_width(cr, std::max(0.4, 3.0 / scale));
+    const double cy = y0 + 0.5 * height / scale;
+    cairo_arc(cr, 0.5 * lx, cy, 2.0 * *style.xi_circle, 0, 2 * M_PI);
+    cairo_stroke(cr);
+  }
+  cairo_restore(cr);
+  if (!style.title.empty()) {
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr, std::max(10.0, 0.025 * std::max(width, height)));
+    cairo_move_to(cr, 8, 8 + std::max(10.0, 0.025 * std::max(width, height)));
+    cairo_show_text(cr, style.title.c_str());
+  }
+}
+
+}  // namespace
+
+void render_snapshot(const Configuration& config, const std::string& path, const SnapshotStyle& style) {
+  const bool png = ends_with(path, ".png"), svg = ends_with(path, ".svg");
+  if (!png && !svg) throw InvalidArgument("out", "picture file must end in .png or .svg: " + path);
+  if (style.size < 16 || style.size > 20000) throw InvalidArgument("size", "picture size must be 16..20000");
+  const double region_height = config.height();
+  if (!(config.lx > 0 && region_height > 0)) throw InvalidArgument("configuration", "box has no positive size");
+  // Between walls, one radius of margin above and below shows the wall bars.
+  const double margin = config.has_walls() ? 1.0 : 0.0;
+  const double y0 = (config.has_walls() ? config.wall_bottom : 0.0) - margin;
+  const double shown_height = region_height + 2 * margin;
+  const double scale = style.size / std::max(config.lx, shown_height);
+  const int width = std::max(1, static_cast<int>(std::lround(config.lx * scale)));
+  const int height = std::max(1, static_cast<int>(std::lround(shown_height * scale)));
+  cairo_surface_t* surface = png ? cairo_image_surface_create(CAIRO_FORMAT_RGB24, width, height)
+                                 : cairo_svg_surface_create(path.c_str(), width, height);
+  std::unique_ptr<cairo_surface_t, void (*)(cairo_surface_t*)> surface_guard(surface, cairo_surface_destroy);
+  if (cairo_surface_status(surface) != CAIRO_STATUS_SUCCESS)
+    throw std::runtime_error("cairo cannot create '" + path + "': " + cairo_status_to_string(cairo_surface_status(surface)));
+  cairo_t* cr = cairo_create(surface);
+  draw(cr, config, style, scale, width, height, y0);
+  const cairo_status_t status = cairo_status(cr);
+  cairo_destroy(cr);
+  if (status != CAIRO_STATUS_SUCCESS) throw std::runtime_error(std::string("cairo: ") + cairo_status_to_string(status));
+  if (png) {
+    const cairo_status_t written = cairo_surface_write_to_png(surface, path.c_str());
+    if (written != CAIRO_STATUS_SUCCESS)
+      throw std::runtime_error("cannot write '" + path + "': " + cairo_status_to_string(written));
+  } else {
+    cairo_surface_finish(surface);
+    if (cairo_surface_status(surface) != CAIRO_STATUS_SUCCESS)
+      throw std::runtime_error("cannot write '" + path + "': " + cairo_status_to_string(cairo_surface_status(surface)));
+  }
+}
+
+}  // namespace gel::analysis
