@@ -135,8 +135,9 @@ int run_analyze_run(const AnalyzeRunOptions& o) {
   else
     std::printf("power law   %s\n", ca.power_law_error.c_str());
   if (ca.gel_point)
-    std::printf("gel point   P = %.4g (phi - %.4f +- %.4f)^(%.3f +- %.3f)\n", ca.gel_point->prefactor, ca.gel_point->phi_g,
-                ca.gel_point->phi_g_stderr, ca.gel_point->exponent, ca.gel_point->exponent_stderr);
+    std::printf("gel point   P = %.4g (phi - %.4f +- %.4f)^(%.3f +- %.3f)%s\n", ca.gel_point->prefactor, ca.gel_point->phi_g,
+                ca.gel_point->phi_g_stderr, ca.gel_point->exponent, ca.gel_point->exponent_stderr,
+                ca.gel_point->phi_g_at_bound ? "  (phi_g on its bound: the data fix no gel point)" : "");
   else
     std::printf("gel point   %s\n", ca.gel_point_error.c_str());
   for (int r = 0; r < 3; ++r) {

@@ -21,6 +21,7 @@ struct PlotOptions {
   std::string out, fit_range;
   bool svg = false, no_snapshots = false;
   double pixel = gel::analysis::kDefaultPixel;
+  int snapshot_size = 1000;
 };
 
 int run_plot(const PlotOptions& o) {
@@ -37,6 +38,7 @@ int run_plot(const PlotOptions& o) {
   gel::analysis::PictureOptions pictures;
   pictures.svg = o.svg;
   pictures.snapshots = !o.no_snapshots;
+  pictures.snapshot_size = o.snapshot_size;
   const auto written = gel::analysis::render_run_pictures(run, out, pictures);
   gel::write_file_atomically((std::filesystem::path(out) / "analysis.json").string(), gel::analysis::to_json(run).dump(1) + "\n");
   for (const auto& path : written) std::cout << path << "\n";
@@ -54,6 +56,7 @@ const gelsim::Registrar plot_registrar{
       sub.add_option("--fit-range", o->fit_range, "PHIMIN,PHIMAX of the fits (default: all rows after k = 0)");
       sub.add_option("--pixel", o->pixel, "pixel size [a] of the structure analyses (default 0.25)");
       sub.add_flag("--no-snapshots", o->no_snapshots, "plots only");
+      sub.add_option("--snapshot-size", o->snapshot_size, "pixels of the longer side of the snapshots (default 1000)");
       return [o] { return run_plot(*o); };
     }};
 

@@ -282,6 +282,15 @@ TEST(Fits, GelPointFitRecoversPhiGAndExponent) {
   EXPECT_NEAR(exact.phi_g, 0.07, 1e-6);
   EXPECT_NEAR(exact.exponent, 2.5, 1e-5);
   EXPECT_NEAR(exact.prefactor, 2.0, 1e-4);
+  EXPECT_FALSE(exact.phi_g_at_bound);
+  // A pure power law (phi_g = 0) puts phi_g on its lower bound and recovers the exponent.
+  std::vector<double> pure;
+  for (double x : phi) pure.push_back(0.5 * std::pow(x, 3.0));
+  const GelPointFit at_zero = fit_gel_point(phi, pure, 0, 1);
+  EXPECT_GE(at_zero.phi_g, 0.0);
+  EXPECT_LT(at_zero.phi_g, 1e-6);
+  EXPECT_TRUE(at_zero.phi_g_at_bound);
+  EXPECT_NEAR(at_zero.exponent, 3.0, 1e-4);
   std::mt19937_64 rng(3);
   std::normal_distribution<double> noise(0, 0.02);
   std::vector<double> noisy = p;

@@ -123,7 +123,8 @@ GelPointFit fit_gel_point(const std::vector<double>& phi, const std::vector<doub
       Eigen::Matrix3d A = JtJ;
       A.diagonal() += damping * JtJ.diagonal().cwiseMax(1e-12);
       const Eigen::Vector3d step = A.ldlt().solve(-gradient);
-      const Eigen::Vector3d trial = q + step;
+      Eigen::Vector3d trial = q + step;
+      trial[1] = std::max(trial[1], 0.0);  // projected onto phi_g >= 0: a packing fraction
       Eigen::VectorXd trial_r;
       const double trial_cost = trial[1] < phi_lowest ? residuals(trial, trial_r) : std::numeric_limits<double>::infinity();
       if (trial_cost < cost) {
@@ -142,6 +143,7 @@ GelPointFit fit_gel_point(const std::vector<double>& phi, const std::vector<doub
   jacobian(q, J);
   fit.prefactor = std::exp(q[0]);
   fit.phi_g = q[1];
+  fit.phi_g_at_bound = q[1] <= 1e-9 || q[1] >= phi_lowest * (1 - 1e-6);
   fit.exponent = q[2];
   const Eigen::Matrix3d JtJ = J.transpose() * J;
   if (n > 3 && JtJ.fullPivLu().isInvertible()) {

@@ -92,7 +92,7 @@ void render_plot(const PlotFigure& figure, const std::string& path) {
   gp << "set title " << quoted(figure.title) << " noenhanced\n";
   gp << "set xlabel " << quoted(figure.x_label) << "\n";
   gp << "set ylabel " << quoted(figure.y_label) << "\n";
-  gp << "set grid\nset key outside right top noenhanced\nset bars small\n";
+  gp << "set grid\nset key inside top left box opaque noenhanced\nset bars small\n";
   if (figure.log_x) gp << "set logscale x\n";
   if (figure.log_y) gp << "set logscale y\n";
   int arrow = 1;

@@ -139,7 +139,7 @@ nlohmann::json to_json(const GelPointFit& f) {
   return {{"prefactor", number(f.prefactor)}, {"phi_g", number(f.phi_g)}, {"exponent", number(f.exponent)},
           {"log_prefactor_stderr", number(f.log_prefactor_stderr)}, {"phi_g_stderr", number(f.phi_g_stderr)},
           {"exponent_stderr", number(f.exponent_stderr)}, {"phi_min", f.x_min}, {"phi_max", f.x_max},
-          {"points", f.points}, {"iterations", f.iterations}, {"converged", f.converged},
+          {"points", f.points}, {"iterations", f.iterations}, {"converged", f.converged}, {"phi_g_at_bound", f.phi_g_at_bound},
           {"rms_log_residual", number(f.rms_log_residual)}};
 }
 

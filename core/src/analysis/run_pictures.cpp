@@ -56,7 +56,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     PlotSeries data{"P_y", phi, rows.at("P").mean, ensemble ? rows.at("P").std : std::vector<double>{}, "linespoints"};
     f.series.push_back(data);
     if (ca.power_law) {
-      PlotSeries fit{format("P = %.3g phi^{%.2f +- %.2f}", ca.power_law->prefactor, ca.power_law->exponent, ca.power_law->exponent_stderr), {}, {}, {}, "lines"};
+      PlotSeries fit{format("P = %.3g phi^%.2f (+- %.2f)", ca.power_law->prefactor, ca.power_law->exponent, ca.power_law->exponent_stderr), {}, {}, {}, "lines"};
       for (int i = 0; i <= 50; ++i) {
         const double x = ca.power_law->x_min * std::pow(ca.power_law->x_max / ca.power_law->x_min, i / 50.0);
         fit.x.push_back(x), fit.y.push_back(ca.power_law->prefactor * std::pow(x, ca.power_law->exponent));
@@ -65,7 +65,9 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     }
     if (ca.gel_point) {
       const auto& g = *ca.gel_point;
-      PlotSeries fit{format("P = C'(phi - %.3f)^{%.2f}", g.phi_g, g.exponent), {}, {}, {}, "lines"};
+      PlotSeries fit{format("P = %.3g (phi - %.3f)^%.2f", g.prefactor, g.phi_g, g.exponent) +
+                         (g.phi_g_at_bound ? " (phi_g at its bound)" : ""),
+                     {}, {}, {}, "lines"};
       for (int i = 0; i <= 50; ++i) {
         const double x = g.x_min * std::pow(g.x_max / g.x_min, i / 50.0);
         fit.x.push_back(x), fit.y.push_back(g.prefactor * std::pow(x - g.phi_g, g.exponent));
@@ -99,11 +101,11 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     written.push_back(output("fractal_dimension"));
 
     PlotFigure x;
-    x.title = "Correlation length xi^{(0.5)}" + members;
+    x.title = "Correlation length xi^(0.5)" + members;
     x.x_label = "packing fraction {/Symbol f}";
-    x.y_label = "xi^{(0.5)} [a]";
+    x.y_label = "{/Symbol x}^{(0.5)} [a]";
     x.log_x = x.log_y = true;
-    PlotSeries xi{"xi^{(0.5)}", {}, {}, {}, "linespoints"};
+    PlotSeries xi{"xi^(0.5)", {}, {}, {}, "linespoints"};
     std::vector<double> xi_std;
     for (const auto& row : run.structure)
       if (row.xi_05.mean) xi.x.push_back(row.phi), xi.y.push_back(*row.xi_05.mean), xi_std.push_back(row.xi_05.std.value_or(0));
@@ -111,7 +113,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     x.series.push_back(xi);
     if (run.xi_power_law) {
       const auto& p = *run.xi_power_law;
-      PlotSeries fit{format("xi = %.3g phi^{%.2f +- %.2f}", p.prefactor, p.exponent, p.exponent_stderr), {}, {}, {}, "lines"};
+      PlotSeries fit{format("xi = %.3g phi^%.2f (+- %.2f)", p.prefactor, p.exponent, p.exponent_stderr), {}, {}, {}, "lines"};
       for (int i = 0; i <= 50; ++i) {
         const double v = p.x_min * std::pow(p.x_max / p.x_min, i / 50.0);
         fit.x.push_back(v), fit.y.push_back(p.prefactor * std::pow(v, p.exponent));

@@ -87,10 +87,17 @@ void draw(cairo_t* cr, const Configuration& config, const SnapshotStyle& style, 
   }
   cairo_restore(cr);
   if (!style.title.empty()) {
-    cairo_set_source_rgb(cr, 0, 0, 0);
+    // On a white label so that it stays readable over particles.
+    const double font = std::max(10.0, 0.022 * std::max(width, height));
     cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-    cairo_set_font_size(cr, std::max(10.0, 0.025 * std::max(width, height)));
-    cairo_move_to(cr, 8, 8 + std::max(10.0, 0.025 * std::max(width, height)));
+    cairo_set_font_size(cr, font);
+    cairo_text_extents_t extents;
+    cairo_text_extents(cr, style.title.c_str(), &extents);
+    cairo_set_source_rgba(cr, 1, 1, 1, 0.85);
+    cairo_rectangle(cr, 4, 4, extents.x_advance + 8, font * 1.4);
+    cairo_fill(cr);
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_move_to(cr, 8, 4 + font * 1.05);
     cairo_show_text(cr, style.title.c_str());
   }
 }

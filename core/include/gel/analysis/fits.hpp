@@ -12,8 +12,10 @@
 // r_i = ln P_i - ln C' - lambda' ln(phi_i - phi_g), over (ln C', phi_g, lambda') by
 // Levenberg-Marquardt (the normal equations solved with Eigen's LDLT). Start: for phi_g on a
 // grid in [0, phi_min) the problem is linear in (ln C', lambda'); the best grid point seeds the
-// iteration. phi_g is kept below the smallest fitted phi (a step that crosses it is rejected).
-// Standard errors from s^2 (J^T J)^-1 at the optimum.
+// iteration. phi_g is kept in [0, smallest fitted phi): a step below 0 is projected onto 0, one
+// that crosses the smallest phi is rejected. When the optimum lies on that boundary
+// (phi_g_at_bound) the data do not determine a gel point and the standard errors, from
+// s^2 (J^T J)^-1 at the optimum, do not apply.
 #include <vector>
 
 namespace gel::analysis {
@@ -39,6 +41,7 @@ struct GelPointFit {
   int points = 0;
   int iterations = 0;
   bool converged = false;
+  bool phi_g_at_bound = false;
   double rms_log_residual = 0;
 };
 // Throws InvalidArgument ("fit_range") with fewer than 4 usable points.
