@@ -173,7 +173,7 @@ const gelsim::Registrar analyze_run_registrar{
 
 struct SnapshotOptions {
   std::string config, out;
-  bool xi = false, no_bonds = false;
+  bool xi = false, no_bonds = false, no_antialias = false;
   int size = 1200;
   double pixel = gel::analysis::kDefaultPixel;
 };
@@ -183,6 +183,7 @@ int run_snapshot(const SnapshotOptions& o) {
   gel::analysis::SnapshotStyle style;
   style.size = o.size;
   style.bonds = !o.no_bonds;
+  style.antialias = !o.no_antialias;
   char title[128];
   std::snprintf(title, sizeof title, "N = %zu   phi = %.3f", config.size(), config.packing_fraction());
   style.title = title;
@@ -204,6 +205,7 @@ const gelsim::Registrar snapshot_registrar{
       sub.add_option("--out", o->out, "picture file, .png or .svg")->required();
       sub.add_flag("--xi", o->xi, "draw a circle of diameter 4 xi^(0.5)");
       sub.add_flag("--no-bonds", o->no_bonds, "leave the bonds out");
+      sub.add_flag("--no-antialias", o->no_antialias, "hard edges: a much smaller PNG");
       sub.add_option("--size", o->size, "pixels (PNG) or points (SVG) of the longer side (default 1200)");
       sub.add_option("--pixel", o->pixel, "pixel size [a] for xi^(0.5) (default 0.25)");
       return [o] { return run_snapshot(*o); };

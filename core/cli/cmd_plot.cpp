@@ -19,9 +19,10 @@ namespace {
 struct PlotOptions {
   std::vector<std::string> dirs;
   std::string out, fit_range;
-  bool svg = false, no_snapshots = false;
+  bool svg = false, no_snapshots = false, no_antialias = false;
   double pixel = gel::analysis::kDefaultPixel;
   int snapshot_size = 1000;
+  std::string plot_size;
 };
 
 int run_plot(const PlotOptions& o) {
@@ -39,6 +40,14 @@ int run_plot(const PlotOptions& o) {
   pictures.svg = o.svg;
   pictures.snapshots = !o.no_snapshots;
   pictures.snapshot_size = o.snapshot_size;
+  pictures.snapshot_antialias = !o.no_antialias;
+  if (!o.plot_size.empty()) {
+    std::istringstream in(o.plot_size);
+    char comma = 0;
+    if (!(in >> pictures.plot_width >> comma >> pictures.plot_height) || comma != ',' || pictures.plot_width < 100 ||
+        pictures.plot_height < 100)
+      throw gel::InvalidArgument("plot_size", "expected WIDTH,HEIGHT of at least 100 each, got '" + o.plot_size + "'");
+  }
   const auto written = gel::analysis::render_run_pictures(run, out, pictures);
   gel::write_file_atomically((std::filesystem::path(out) / "analysis.json").string(), gel::analysis::to_json(run).dump(1) + "\n");
   for (const auto& path : written) std::cout << path << "\n";
@@ -56,6 +65,8 @@ const gelsim::Registrar plot_registrar{
       sub.add_option("--fit-range", o->fit_range, "PHIMIN,PHIMAX of the fits (default: all rows after k = 0)");
       sub.add_option("--pixel", o->pixel, "pixel size [a] of the structure analyses (default 0.25)");
       sub.add_flag("--no-snapshots", o->no_snapshots, "plots only");
+      sub.add_flag("--no-antialias", o->no_antialias, "snapshots with hard edges: much smaller PNG files");
+      sub.add_option("--plot-size", o->plot_size, "WIDTH,HEIGHT of the plots in pixels (default 900,650)");
       sub.add_option("--snapshot-size", o->snapshot_size, "pixels of the longer side of the snapshots (default 1000)");
       return [o] { return run_plot(*o); };
     }};

@@ -2,6 +2,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cerrno>
 #include <cstdlib>
@@ -92,14 +93,39 @@ void render_plot(const PlotFigure& figure, const std::string& path) {
   gp << "set title " << quoted(figure.title) << " noenhanced\n";
   gp << "set xlabel " << quoted(figure.x_label) << "\n";
   gp << "set ylabel " << quoted(figure.y_label) << "\n";
-  gp << "set grid\nset key inside top left box opaque noenhanced\nset bars small\n";
-  if (figure.log_x) gp << "set logscale x\n";
+  gp << "set grid\nset key inside " << figure.key_position << " box opaque noenhanced\nset bars small\n";
+  // A log axis would otherwise widen to whole decades and squeeze a short range of phi; with the
+  // range fixed to the data, ticks at 1, 1.5, 2, 3, ... times powers of ten keep it labelled.
+  if (figure.log_x) {
+    gp << "set logscale x\nset autoscale xfix\nset offsets graph 0.03, graph 0.03, 0, 0\n";
+    double lo = HUGE_VAL, hi = -HUGE_VAL;
+    for (const auto& series : figure.series)
+      for (double x : series.x)
+        if (std::isfinite(x) && x > 0) lo = std::min(lo, x), hi = std::max(hi, x);
+    if (lo < hi) {
+      std::vector<double> ticks;
+      for (const std::vector<double>& mantissas : {std::vector<double>{1, 1.5, 2, 3, 4, 5, 6, 7, 8}, std::vector<double>{1, 2, 5}, std::vector<double>{1}}) {
+        ticks.clear();
+        for (int e = static_cast<int>(std::floor(std::log10(lo))) - 1; e <= static_cast<int>(std::ceil(std::log10(hi))); ++e)
+          for (double m : mantissas) {
+            const double t = m * std::pow(10.0, e);
+            if (t >= lo * 0.97 && t <= hi * 1.03) ticks.push_back(t);
+          }
+        if (ticks.size() <= 10) break;
+      }
+      if (ticks.size() >= 2) {
+        gp << "set format x \"%g\"\nset xtics (";
+        for (std::size_t i = 0; i < ticks.size(); ++i) gp << (i ? ", " : "") << std::setprecision(6) << ticks[i];
+        gp << ")\n";
+      }
+    }
+  }
   if (figure.log_y) gp << "set logscale y\n";
   int arrow = 1;
   for (const auto& [x, label] : figure.vertical_lines) {
     if (!std::isfinite(x) || (figure.log_x && x <= 0)) continue;
     gp << "set arrow " << arrow << " from " << x << ", graph 0 to " << x << ", graph 1 nohead dt 2 lw 1.5 lc rgb \"#555555\"\n";
-    gp << "set label " << arrow << " " << quoted(label) << " at " << x << ", graph 0.97 rotate by 90 right offset -0.8,0 noenhanced\n";
+    gp << "set label " << arrow << " " << quoted(label) << " at " << x << ", graph 0.03 rotate by 90 left offset -0.8,0 noenhanced\n";
     ++arrow;
   }
   gp << "plot ";

@@ -28,8 +28,8 @@ std::vector<std::size_t> spread(std::size_t n, int count) {
 }
 
 void add_regime_lines(PlotFigure& figure, const RegimeSplit& regimes) {
-  if (regimes.single_mode_start_phi) figure.vertical_lines.push_back({*regimes.single_mode_start_phi, "single-mode plastic from here"});
-  if (regimes.multi_mode_start_phi) figure.vertical_lines.push_back({*regimes.multi_mode_start_phi, "multi-mode plastic from here"});
+  if (regimes.single_mode_start_phi) figure.vertical_lines.push_back({*regimes.single_mode_start_phi, "single-mode plastic"});
+  if (regimes.multi_mode_start_phi) figure.vertical_lines.push_back({*regimes.multi_mode_start_phi, "multi-mode plastic"});
 }
 
 }  // namespace
@@ -41,6 +41,12 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
   const std::string ext = options.svg ? ".svg" : ".png";
   std::vector<std::string> written;
   auto output = [&](const std::string& name) { return (fs::path(out_dir) / (name + ext)).string(); };
+  auto render = [&](PlotFigure& figure, const std::string& name) {
+    figure.width = options.plot_width;
+    figure.height = options.plot_height;
+    render_plot(figure, output(name));
+    written.push_back(output(name));
+  };
   const CurveAnalysis& ca = run.curve;
   const bool ensemble = ca.ensemble.members > 1;
   const std::string members = ensemble ? format(" (mean +- std of %.0f runs)", ca.ensemble.members) : std::string();
@@ -75,8 +81,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
       f.series.push_back(fit);
     }
     add_regime_lines(f, ca.regimes);
-    render_plot(f, output("pressure"));
-    written.push_back(output("pressure"));
+    render(f, "pressure");
   }
   if (!run.structure.empty()) {
     PlotFigure c, d;
@@ -84,6 +89,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     c.x_label = "r [a]";
     c.y_label = "C(r)";
     c.log_x = c.log_y = true;
+    c.key_position = "top right";  // C(r) falls from the upper left
     d.title = "Fractal-dimension profile" + members;
     d.x_label = "r [a]";
     d.y_label = "D_f(r) = 2 + d ln C / d ln r";
@@ -95,10 +101,8 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
       c.series.push_back({label, r, cc, {}, "lines"});
       d.series.push_back({label, row.r_df, row.df.mean, {}, "lines"});
     }
-    render_plot(c, output("correlation"));
-    render_plot(d, output("fractal_dimension"));
-    written.push_back(output("correlation"));
-    written.push_back(output("fractal_dimension"));
+    render(c, "correlation");
+    render(d, "fractal_dimension");
 
     PlotFigure x;
     x.title = "Correlation length xi^(0.5)" + members;
@@ -120,8 +124,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
       }
       x.series.push_back(fit);
     }
-    render_plot(x, output("xi"));
-    written.push_back(output("xi"));
+    render(x, "xi");
   }
   {
     PlotFigure f;
@@ -132,8 +135,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     f.series.push_back({"contact number", phi, rows.at("contact_number").mean,
                         ensemble ? rows.at("contact_number").std : std::vector<double>{}, "linespoints"});
     add_regime_lines(f, ca.regimes);
-    render_plot(f, output("contact_number"));
-    written.push_back(output("contact_number"));
+    render(f, "contact_number");
   }
   const auto& iv = ca.ensemble.intervals;
   {
@@ -147,8 +149,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     f.series.push_back({"dissipated", iv.at("phi_mid").mean, iv.at("dissipated_rate").mean,
                         ensemble ? iv.at("dissipated_rate").std : std::vector<double>{}, "linespoints"});
     add_regime_lines(f, ca.regimes);
-    render_plot(f, output("energy_increments"));
-    written.push_back(output("energy_increments"));
+    render(f, "energy_increments");
   }
   {
     PlotFigure f;
@@ -161,8 +162,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
       f.series.push_back({cause, iv.at("phi_mid").mean, iv.at(key).mean, ensemble ? iv.at(key).std : std::vector<double>{}, "linespoints"});
     }
     add_regime_lines(f, ca.regimes);
-    render_plot(f, output("rupture_rates"));
-    written.push_back(output("rupture_rates"));
+    render(f, "rupture_rates");
   }
   if (!ca.ensemble.phi_profile.empty()) {
     PlotFigure f;
@@ -176,8 +176,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
       for (std::size_t i = 0; i < p.mean.size(); ++i) s.x.push_back((i + 0.5) / p.mean.size());
       f.series.push_back(s);
     }
-    render_plot(f, output("profiles"));
-    written.push_back(output("profiles"));
+    render(f, "profiles");
   }
   if (options.snapshots && !run.curves.empty()) {
     const fs::path folder = fs::path(out_dir) / "snapshots";
@@ -190,6 +189,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
       if (!fs::exists(source)) continue;
       SnapshotStyle style;
       style.size = options.snapshot_size;
+      style.antialias = options.snapshot_antialias;
       for (const auto& row : run.structure)
         if (row.k == first.rows(k).k() && !row.snapshots.empty() && row.snapshots[0] == source.string())
           style.xi_circle = row.xi_05.mean;  // for one run the member's own value

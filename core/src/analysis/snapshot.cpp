@@ -123,6 +123,7 @@ void render_snapshot(const Configuration& config, const std::string& path, const
   if (cairo_surface_status(surface) != CAIRO_STATUS_SUCCESS)
     throw std::runtime_error("cairo cannot create '" + path + "': " + cairo_status_to_string(cairo_surface_status(surface)));
   cairo_t* cr = cairo_create(surface);
+  if (!style.antialias) cairo_set_antialias(cr, CAIRO_ANTIALIAS_NONE);
   draw(cr, config, style, scale, width, height, y0);
   const cairo_status_t status = cairo_status(cr);
   cairo_destroy(cr);

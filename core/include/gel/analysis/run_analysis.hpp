@@ -90,6 +90,8 @@ struct PictureOptions {
   int curves_per_plot = 6;
   bool snapshots = true;
   int snapshot_size = 1000;
+  int plot_width = 900, plot_height = 650;
+  bool snapshot_antialias = true;
 };
 std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::string& out_dir,
                                              const PictureOptions& options = {});
