@@ -1,0 +1,977 @@
+// geld's service against a real gRPC server on a loopback port and a real SQLite file in a
+// temporary directory. Physics runs through the real compression engine on tiny scenes; queue
+// behaviour (blocking, concurrency, cancellation, limits) uses a plain callable executor, a test
+// double of the engine run, never of gRPC or SQLite.
+#include <sqlite3.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <mutex>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/grpcpp.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "executor.hpp"
+#include "gel/v1/service.grpc.pb.h"
+#include "job_manager.hpp"
+#include "service.hpp"
+#include "store.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using gel::v1::JobState;
+using gel::v1::JobUpdate;
+
+// The daemon's log lines only when asked for (GEL_TEST_LOG=1).
+const bool kQuiet = [] {
+  spdlog::set_level(std::getenv("GEL_TEST_LOG") ? spdlog::level::info : spdlog::level::warn);
+  return true;
+}();
+
+// A 64-particle quick scene with the fast protocol: well under a second in Release.
+std::string tiny_scene_json(int steps = 3, const std::string& fidelity = "fast") {
+  nlohmann::json scene = {{"preset", "quick"},
+                          {"generator", {{"n_floc", 8}, {"n_clusters", 8}, {"lx", 30}, {"ly", 50}}},
+                          {"compression", {{"fidelity", fidelity}, {"steps", steps}}}};
+  return scene.dump();
+}
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string pattern = (fs::temp_directory_path() / "geld-test.XXXXXX").string();
+    path_ = mkdtemp(pattern.data());
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// A callable executor: the test decides what a member does.
+class FnExecutor : public geld::Executor {
+ public:
+  using Fn = std::function<geld::RunResult(const geld::RunContext&)>;
+  explicit FnExecutor(Fn fn) : fn_(std::move(fn)) {}
+  std::string name() const override { return "test"; }
+  geld::RunResult run(const geld::RunContext& ctx) override { return fn_(ctx); }
+
+ private:
+  Fn fn_;
+};
+
+gel::v1::CurveRow make_row(int k, double seed) {
+  gel::v1::CurveRow row;
+  row.set_k(k);
+  row.set_phi(0.1 + 0.05 * k);
+  row.set_target_phi(0.1 + 0.05 * k);
+  row.set_p(seed * k);
+  row.set_p_top(seed * k + 0.5);
+  row.set_p_bot(seed * k - 0.5);
+  row.set_contact_number(2.0 + 0.1 * seed);
+  row.set_equilibrated(true);
+  return row;
+}
+
+// Emits `rows` rows (k = 0..rows-1, P = seed * k), waiting `gate` (if given) before each row
+// after the first `open_rows`; stops when asked.
+struct Script {
+  int rows = 3;
+  int open_rows = 1000;
+  std::chrono::milliseconds row_delay{0};
+  std::mutex mutex;
+  std::condition_variable cv;
+  bool gate_open = false;
+  std::atomic<int> running{0};
+  std::atomic<int> max_running{0};
+  std::chrono::milliseconds linger_on_stop{0};
+
+  void open() {
+    std::lock_guard lock(mutex);
+    gate_open = true;
+    cv.notify_all();
+  }
+
+  geld::RunResult run(const geld::RunContext& ctx) {
+    const int now = ++running;
+    int prev = max_running.load();
+    while (prev < now && !max_running.compare_exchange_weak(prev, now)) {
+    }
+    struct Leave {
+      std::atomic<int>& r;
+      ~Leave() { --r; }
+    } leave{running};
+    geld::RunResult result;
+    for (int k = 0; k < rows; ++k) {
+      if (k >= open_rows) {
+        std::unique_lock lock(mutex);
+        while (!gate_open && !ctx.stop->load()) cv.wait_for(lock, 10ms);
+      }
+      if (ctx.stop->load()) {
+        std::this_thread::sleep_for(linger_on_stop);
+        result.stopped = true;
+        return result;
+      }
+      if (row_delay.count() > 0) std::this_thread::sleep_for(row_delay);
+      auto row = make_row(k, static_cast<double>(ctx.seed));
+      gel::v1::Progress progress;
+      progress.set_k(k);
+      progress.set_k_total(rows - 1);
+      progress.set_phi(row.phi());
+      ctx.on_progress(progress);
+      ctx.on_row(row);
+      *result.curve.add_rows() = row;
+    }
+    result.finished = true;
+    return result;
+  }
+};
+
+class Service : public ::testing::Test {
+ protected:
+  void start(geld::Limits limits = {}, int workers = 2, std::shared_ptr<geld::Executor> executor = nullptr,
+             const std::string& listen = "127.0.0.1:0", const std::string& token = "") {
+    geld::DaemonOptions options;
+    options.listen = listen;
+    options.token = token;
+    options.manager.data_dir = dir_.path();
+    options.manager.workers = workers;
+    options.manager.limits = limits;
+    if (!executor) executor = geld::make_thread_executor();
+    daemon_ = std::make_unique<geld::Daemon>(options, geld::make_compression_engine(), executor);
+    daemon_->start();
+    channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(daemon_->port()), grpc::InsecureChannelCredentials());
+    stub_ = gel::v1::GelService::NewStub(channel_);
+  }
+  void stop() {
+    if (daemon_) daemon_->shutdown();
+    daemon_.reset();
+  }
+  void TearDown() override { stop(); }
+
+  std::shared_ptr<geld::Executor> scripted(Script& script) {
+    return std::make_shared<FnExecutor>([&script](const geld::RunContext& ctx) { return script.run(ctx); });
+  }
+
+  std::unique_ptr<grpc::ClientContext> ctx(const std::string& token = "") {
+    auto c = std::make_unique<grpc::ClientContext>();
+    if (!token.empty()) c->AddMetadata("authorization", "Bearer " + token);
+    c->set_deadline(std::chrono::system_clock::now() + 60s);
+    return c;
+  }
+
+  grpc::Status submit(const std::string& scene_json, std::string* id, std::vector<std::uint64_t> seeds = {},
+                      const std::string& name = "", std::map<std::string, std::string> labels = {}) {
+    gel::v1::SubmitJobRequest request;
+    request.set_scene_json(scene_json);
+    for (auto s : seeds) request.add_seeds(s);
+    request.set_name(name);
+    for (const auto& [k, v] : labels) (*request.mutable_labels())[k] = v;
+    gel::v1::SubmitJobResponse response;
+    auto status = stub_->SubmitJob(ctx().get(), request, &response);
+    if (id) *id = response.job_id();
+    return status;
+  }
+  std::string submit_ok(const std::string& scene_json, std::vector<std::uint64_t> seeds = {},
+                        const std::string& name = "", std::map<std::string, std::string> labels = {}) {
+    std::string id;
+    auto status = submit(scene_json, &id, seeds, name, labels);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return id;
+  }
+
+  gel::v1::Job get(const std::string& id) {
+    gel::v1::GetJobRequest request;
+    request.set_job_id(id);
+    gel::v1::Job job;
+    auto status = stub_->GetJob(ctx().get(), request, &job);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return job;
+  }
+
+  // Watches until the stream ends; `on_update` may return false to stop reading early.
+  std::vector<JobUpdate> watch(const std::string& id, grpc::Status* status = nullptr,
+                               const std::function<bool(const JobUpdate&)>& on_update = nullptr) {
+    gel::v1::WatchJobRequest request;
+    request.set_job_id(id);
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + 300s);
+    auto reader = stub_->WatchJob(&context, request);
+    std::vector<JobUpdate> updates;
+    JobUpdate update;
+    while (reader->Read(&update)) {
+      updates.push_back(update);
+      if (on_update && !on_update(update)) {
+        context.TryCancel();
+        break;
+      }
+    }
+    auto s = reader->Finish();
+    if (status) *status = s;
+    return updates;
+  }
+
+  bool wait_for(const std::function<bool()>& condition, std::chrono::milliseconds timeout = 60s) {
+    const auto until = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < until) {
+      if (condition()) return true;
+      std::this_thread::sleep_for(5ms);
+    }
+    return condition();
+  }
+
+  gel::v1::GetCurveResponse curve(const std::string& id) {
+    gel::v1::GetCurveRequest request;
+    request.set_job_id(id);
+    gel::v1::GetCurveResponse response;
+    auto status = stub_->GetCurve(ctx().get(), request, &response);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return response;
+  }
+
+  int sqlite_count(const std::string& sql) {
+    sqlite3* db = nullptr;
+    EXPECT_EQ(sqlite3_open_v2((fs::path(dir_.path()) / "geld.sqlite").c_str(), &db, SQLITE_OPEN_READONLY, nullptr),
+              SQLITE_OK);
+    sqlite3_stmt* stmt = nullptr;
+    EXPECT_EQ(sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt, nullptr), SQLITE_OK) << sqlite3_errmsg(db);
+    int count = -1;
+    if (sqlite3_step(stmt) == SQLITE_ROW) count = sqlite3_column_int(stmt, 0);
+    sqlite3_finalize(stmt);
+    sqlite3_close(db);
+    return count;
+  }
+
+  TempDir dir_;
+  std::unique_ptr<geld::Daemon> daemon_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<gel::v1::GelService::Stub> stub_;
+};
+
+int count_kind(const std::vector<JobUpdate>& updates, JobUpdate::Kind kind) {
+  int n = 0;
+  for (const auto& u : updates) n += u.kind() == kind;
+  return n;
+}
+
+TEST_F(Service, SubmitWatchSucceedsWithRowsStreamedAndStored) {
+  start();
+  const std::string id = submit_ok(tiny_scene_json(), {}, "tiny", {{"suite", "service"}});
+  ASSERT_FALSE(id.empty());
+  grpc::Status status;
+  auto updates = watch(id, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_FALSE(updates.empty());
+  EXPECT_EQ(updates.front().kind(), JobUpdate::SNAPSHOT);
+  EXPECT_EQ(updates.back().kind(), JobUpdate::STATE);
+  EXPECT_EQ(updates.back().job().state(), gel::v1::JOB_STATE_SUCCEEDED) << updates.back().job().error();
+  // Rows: the snapshot's rows so far plus the streamed ones, once each, k = 0..3.
+  std::vector<int> ks;
+  for (const auto& u : updates) {
+    if (u.kind() == JobUpdate::ROW) ks.push_back(u.row().k());
+  }
+  EXPECT_EQ(ks, (std::vector<int>{0, 1, 2, 3}));
+  for (std::size_t i = 1; i < updates.size(); ++i) {
+    if (updates[i].kind() != JobUpdate::ROW || updates[i].sequence() != updates[0].sequence()) {
+      EXPECT_GT(updates[i].sequence(), updates[i - 1].sequence() - (i == 1 ? 1 : 0));
+    }
+  }
+  auto c = curve(id);
+  ASSERT_EQ(c.members_size(), 1);
+  ASSERT_EQ(c.members(0).curve().rows_size(), 4);
+  EXPECT_EQ(c.members(0).curve().particles(), 64);
+  EXPECT_EQ(c.state(), gel::v1::JOB_STATE_SUCCEEDED);
+  auto json = nlohmann::json::parse(c.json());
+  ASSERT_EQ(json["rows"].size(), 4u);
+  for (const char* key : {"phi", "P", "P_top", "P_bot", "contact_number"}) EXPECT_TRUE(json["rows"][2].contains(key)) << key;
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM curve_rows WHERE job_id = '" + id + "'"), 4);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM events WHERE job_id = '" + id + "'"), 4);
+  EXPECT_GE(sqlite_count("SELECT count(*) FROM logs WHERE job_id = '" + id + "'"), 2);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM states WHERE job_id = '" + id + "'"), 3);  // queued running succeeded
+  const auto job = get(id);
+  EXPECT_EQ(job.rows(), 4);
+  EXPECT_EQ(job.name(), "tiny");
+  EXPECT_EQ(job.labels().at("suite"), "service");
+  EXPECT_EQ(job.bond_preset(), "bond1");
+  EXPECT_GT(job.finished_unix_ms(), 0);
+  gel::v1::GetLogsRequest logs_request;
+  logs_request.set_job_id(id);
+  gel::v1::GetLogsResponse logs;
+  ASSERT_TRUE(stub_->GetLogs(ctx().get(), logs_request, &logs).ok());
+  EXPECT_GE(logs.lines_size(), 2);
+}
+
+TEST_F(Service, EveryRowIsStoredAsReached) {
+  Script script;
+  script.rows = 5;
+  script.open_rows = 2;
+  start({}, 1, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json());
+  ASSERT_TRUE(wait_for([&] { return get(id).rows() == 2; }));
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM curve_rows WHERE job_id = '" + id + "'"), 2);
+  script.open();
+  watch(id);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM curve_rows WHERE job_id = '" + id + "'"), 5);
+}
+
+TEST_F(Service, LateWatcherGetsSnapshotThenLiveUpdates) {
+  Script script;
+  script.rows = 4;
+  script.open_rows = 2;
+  start({}, 1, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json());
+  ASSERT_TRUE(wait_for([&] { return get(id).rows() == 2; }));
+  std::thread opener([&] {
+    std::this_thread::sleep_for(200ms);
+    script.open();
+  });
+  grpc::Status status;
+  auto updates = watch(id, &status);
+  opener.join();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_GE(updates.size(), 6u);
+  EXPECT_EQ(updates[0].kind(), JobUpdate::SNAPSHOT);
+  EXPECT_EQ(updates[0].job().state(), gel::v1::JOB_STATE_RUNNING);
+  EXPECT_EQ(updates[0].job().rows(), 2);
+  EXPECT_EQ(updates[1].kind(), JobUpdate::ROW);
+  EXPECT_EQ(updates[1].row().k(), 0);
+  EXPECT_EQ(updates[2].kind(), JobUpdate::ROW);
+  EXPECT_EQ(updates[2].row().k(), 1);
+  std::vector<int> ks;
+  for (const auto& u : updates) {
+    if (u.kind() == JobUpdate::ROW) ks.push_back(u.row().k());
+  }
+  EXPECT_EQ(ks, (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(updates.back().job().state(), gel::v1::JOB_STATE_SUCCEEDED);
+  // A watcher of a finished job: the snapshot and the stored rows, then the end.
+  auto after = watch(id, &status);
+  ASSERT_TRUE(status.ok());
+  ASSERT_EQ(after.size(), 5u);
+  EXPECT_EQ(after[0].job().state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(count_kind(after, JobUpdate::ROW), 4);
+}
+
+TEST_F(Service, TenConcurrentWatchersAllGetTheFullStream) {
+  Script script;
+  script.rows = 12;
+  script.open_rows = 0;
+  start({}, 1, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json());
+  std::vector<std::vector<JobUpdate>> got(10);
+  std::vector<grpc::Status> statuses(10);
+  std::vector<std::thread> threads;
+  std::atomic<int> subscribed{0};
+  for (int i = 0; i < 10; ++i) {
+    threads.emplace_back([&, i] {
+      got[i] = watch(id, &statuses[i], [&](const JobUpdate& u) {
+        if (u.kind() == JobUpdate::SNAPSHOT) ++subscribed;
+        return true;
+      });
+    });
+  }
+  ASSERT_TRUE(wait_for([&] { return subscribed.load() == 10; }));
+  script.row_delay = 5ms;
+  script.open();
+  for (auto& t : threads) t.join();
+  for (int i = 0; i < 10; ++i) {
+    ASSERT_TRUE(statuses[i].ok()) << statuses[i].error_message();
+    std::vector<int> ks;
+    for (const auto& u : got[i]) {
+      if (u.kind() == JobUpdate::ROW) ks.push_back(u.row().k());
+    }
+    ASSERT_EQ(ks.size(), 12u) << "watcher " << i;
+    for (int k = 0; k < 12; ++k) EXPECT_EQ(ks[k], k);
+    EXPECT_EQ(got[i].back().job().state(), gel::v1::JOB_STATE_SUCCEEDED);
+  }
+}
+
+TEST_F(Service, TwoJobsRunConcurrently) {
+  Script script;
+  script.rows = 3;
+  script.open_rows = 1;
+  start({}, 2, scripted(script));
+  const std::string a = submit_ok(tiny_scene_json());
+  const std::string b = submit_ok(tiny_scene_json());
+  // Each emits one row, then blocks: both rows stored means both run at once.
+  ASSERT_TRUE(wait_for([&] { return get(a).rows() == 1 && get(b).rows() == 1; }));
+  EXPECT_EQ(get(a).state(), gel::v1::JOB_STATE_RUNNING);
+  EXPECT_EQ(get(b).state(), gel::v1::JOB_STATE_RUNNING);
+  EXPECT_EQ(script.running.load(), 2);
+  script.open();
+  watch(a);
+  watch(b);
+  EXPECT_EQ(get(a).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(get(b).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(script.max_running.load(), 2);
+}
+
+TEST_F(Service, CancelRunningQueuedAndFinished) {
+  Script script;
+  script.rows = 3;
+  script.open_rows = 1;
+  start({}, 1, scripted(script));
+  const std::string running = submit_ok(tiny_scene_json());
+  const std::string queued = submit_ok(tiny_scene_json());
+  ASSERT_TRUE(wait_for([&] { return get(running).rows() == 1; }));
+  EXPECT_EQ(get(queued).state(), gel::v1::JOB_STATE_QUEUED);
+
+  gel::v1::CancelJobRequest request;
+  gel::v1::Job job;
+  request.set_job_id(queued);
+  ASSERT_TRUE(stub_->CancelJob(ctx().get(), request, &job).ok());
+  EXPECT_EQ(job.state(), gel::v1::JOB_STATE_CANCELLED);
+
+  request.set_job_id(running);
+  ASSERT_TRUE(stub_->CancelJob(ctx().get(), request, &job).ok());
+  EXPECT_EQ(job.state(), gel::v1::JOB_STATE_CANCELLED);
+  EXPECT_EQ(get(running).state(), gel::v1::JOB_STATE_CANCELLED);
+  EXPECT_EQ(get(queued).state(), gel::v1::JOB_STATE_CANCELLED);
+
+  auto status = stub_->CancelJob(ctx().get(), request, &job);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(status.error_message().find("already ended"), std::string::npos) << status.error_message();
+
+  // A watcher of a cancelled job ends at once with its state.
+  auto updates = watch(running);
+  ASSERT_FALSE(updates.empty());
+  EXPECT_EQ(updates[0].job().state(), gel::v1::JOB_STATE_CANCELLED);
+}
+
+TEST_F(Service, CancelFinishedRealJobIsFailedPrecondition) {
+  start();
+  const std::string id = submit_ok(tiny_scene_json());
+  watch(id);
+  ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  gel::v1::CancelJobRequest request;
+  request.set_job_id(id);
+  gel::v1::Job job;
+  EXPECT_EQ(stub_->CancelJob(ctx().get(), request, &job).error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+}
+
+TEST_F(Service, UnknownJobIsNotFound) {
+  start();
+  const std::string id = "job-999999";
+  gel::v1::Job job;
+  gel::v1::GetJobRequest get_request;
+  get_request.set_job_id(id);
+  auto s = stub_->GetJob(ctx().get(), get_request, &job);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_NE(s.error_message().find(id), std::string::npos);
+  gel::v1::CancelJobRequest cancel_request;
+  cancel_request.set_job_id(id);
+  EXPECT_EQ(stub_->CancelJob(ctx().get(), cancel_request, &job).error_code(), grpc::StatusCode::NOT_FOUND);
+  gel::v1::GetCurveRequest curve_request;
+  curve_request.set_job_id(id);
+  gel::v1::GetCurveResponse curve_response;
+  EXPECT_EQ(stub_->GetCurve(ctx().get(), curve_request, &curve_response).error_code(), grpc::StatusCode::NOT_FOUND);
+  gel::v1::GetLogsRequest logs_request;
+  logs_request.set_job_id(id);
+  gel::v1::GetLogsResponse logs_response;
+  EXPECT_EQ(stub_->GetLogs(ctx().get(), logs_request, &logs_response).error_code(), grpc::StatusCode::NOT_FOUND);
+  grpc::Status status;
+  watch(id, &status);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::NOT_FOUND);
+}
+
+TEST_F(Service, BadInputIsInvalidArgumentNamingTheField) {
+  start();
+  struct Case {
+    std::string json;
+    std::string field;
+  };
+  const std::vector<Case> cases = {
+      {"{\"preset\": \"quick\", ", "scene_json"},                                    // malformed JSON
+      {"{\"preset\": \"nope\"}", "scene.preset"},                                   // unknown preset
+      {"{\"preset\": \"quick\", \"bogus\": 1}", "scene_json"},                       // unknown field
+      {"{\"preset\": \"quick\", \"generator\": {\"lx\": -30}}", "scene.generator.lx"},  // negative size
+      {"{\"preset\": \"quick\", \"compression\": {\"w0\": \"NaN\"}}", "scene.compression.w0"},
+      {"{\"preset\": \"quick\", \"compression\": {\"steps\": -2}}", "scene.compression.steps"},
+      {"{\"preset\": \"quick\", \"compression\": {\"fidelity\": \"ultra\"}}", "scene.compression.fidelity"},
+      {"{\"preset\": \"quick\", \"bending\": {\"chain\": 5}}", "scene.bending"},
+  };
+  for (const auto& c : cases) {
+    std::string id;
+    auto status = submit(c.json, &id);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << c.json << ": " << status.error_message();
+    EXPECT_EQ(status.error_message().rfind(c.field, 0), 0u) << c.json << ": " << status.error_message();
+  }
+  // No scene at all, and an empty job id.
+  gel::v1::SubmitJobRequest empty;
+  gel::v1::SubmitJobResponse response;
+  auto status = stub_->SubmitJob(ctx().get(), empty, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message().rfind("scene", 0), 0u);
+  gel::v1::GetJobRequest get_request;
+  gel::v1::Job job;
+  status = stub_->GetJob(ctx().get(), get_request, &job);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message().rfind("job_id", 0), 0u);
+  gel::v1::SubmitJobRequest bad_label;
+  bad_label.set_scene_json(tiny_scene_json());
+  (*bad_label.mutable_labels())["a=b"] = "c";
+  status = stub_->SubmitJob(ctx().get(), bad_label, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message().rfind("labels", 0), 0u);
+  gel::v1::ListJobsRequest list_request;
+  list_request.set_page_token("garbage");
+  gel::v1::ListJobsResponse list_response;
+  status = stub_->ListJobs(ctx().get(), list_request, &list_response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message().rfind("page_token", 0), 0u);
+  // Still serving.
+  const std::string id = submit_ok(tiny_scene_json());
+  EXPECT_FALSE(id.empty());
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 1);
+}
+
+TEST_F(Service, QueueFullIsResourceExhausted) {
+  Script script;
+  script.rows = 2;
+  script.open_rows = 1;
+  geld::Limits limits;
+  limits.max_queue = 2;
+  start(limits, 1, scripted(script));
+  const std::string first = submit_ok(tiny_scene_json());
+  ASSERT_TRUE(wait_for([&] { return get(first).state() == gel::v1::JOB_STATE_RUNNING; }));
+  submit_ok(tiny_scene_json());
+  submit_ok(tiny_scene_json());
+  std::string id;
+  auto status = submit(tiny_scene_json(), &id);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(status.error_message().find("queue full"), std::string::npos) << status.error_message();
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 3);  // nothing stored for the refused one
+  script.open();
+}
+
+TEST_F(Service, TooManyParticlesIsResourceExhausted) {
+  geld::Limits limits;
+  limits.max_particles = 100;
+  start(limits);
+  std::string id;
+  auto status = submit("{\"preset\": \"quick\"}", &id);  // 256 particles
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(status.error_message().find("256 particles"), std::string::npos) << status.error_message();
+  status = submit("{\"preset\": \"quick\", \"generator\": {\"n_floc\": 1073741824, \"n_clusters\": 2000000000}}", &id);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_EQ(status.error_message().rfind("scene.generator", 0), 0u);
+  EXPECT_FALSE(submit_ok(tiny_scene_json()).empty());  // 64 particles: fine
+  gel::v1::SubmitJobRequest many;
+  many.set_scene_json(tiny_scene_json());
+  for (int i = 0; i < 1001; ++i) many.add_seeds(i);
+  gel::v1::SubmitJobResponse response;
+  EXPECT_EQ(stub_->SubmitJob(ctx().get(), many, &response).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+}
+
+// grpc.health.v1.Health/Check through a generic stub (Debian ships no health client stubs):
+// an empty request asks for the server's overall status; SERVING encodes as 08 01.
+grpc::Status health_check(const std::shared_ptr<grpc::Channel>& channel, const std::string& token, bool* serving) {
+  grpc::GenericStub stub(channel);
+  grpc::ClientContext context;
+  if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
+  context.set_deadline(std::chrono::system_clock::now() + 30s);
+  grpc::CompletionQueue cq;
+  grpc::ByteBuffer request, response;
+  grpc::Slice empty("");
+  request = grpc::ByteBuffer(&empty, 1);
+  auto call = stub.PrepareUnaryCall(&context, "/grpc.health.v1.Health/Check", request, &cq);
+  call->StartCall();
+  grpc::Status status;
+  call->Finish(&response, &status, reinterpret_cast<void*>(1));
+  void* tag = nullptr;
+  bool ok = false;
+  cq.Next(&tag, &ok);
+  std::vector<grpc::Slice> slices;
+  std::string bytes;
+  if (status.ok() && response.Dump(&slices).ok()) {
+    for (const auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  }
+  *serving = bytes == std::string("\x08\x01", 2);
+  cq.Shutdown();
+  while (cq.Next(&tag, &ok)) {
+  }
+  return status;
+}
+
+TEST_F(Service, HealthServiceAnswers) {
+  start();
+  bool serving = false;
+  auto status = health_check(channel_, "", &serving);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_TRUE(serving);
+}
+
+TEST_F(Service, RemoteModeRequiresTheToken) {
+  // A non-loopback address without a token is refused at start.
+  {
+    geld::DaemonOptions options;
+    options.listen = "0.0.0.0:0";
+    options.manager.data_dir = dir_.path();
+    geld::Daemon refused(options, geld::make_compression_engine(), geld::make_thread_executor());
+    EXPECT_THROW(refused.start(), std::invalid_argument);
+  }
+  const std::string token = "s3cret-token";
+  start({}, 1, nullptr, "0.0.0.0:0", token);
+  gel::v1::ListJobsRequest request;
+  gel::v1::ListJobsResponse response;
+  auto status = stub_->ListJobs(ctx().get(), request, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  status = stub_->ListJobs(ctx("wrong").get(), request, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  std::string id;
+  {
+    gel::v1::SubmitJobRequest submit_request;
+    submit_request.set_scene_json(tiny_scene_json());
+    gel::v1::SubmitJobResponse submit_response;
+    EXPECT_EQ(stub_->SubmitJob(ctx().get(), submit_request, &submit_response).error_code(),
+              grpc::StatusCode::UNAUTHENTICATED);
+    EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 0);
+    ASSERT_TRUE(stub_->SubmitJob(ctx(token).get(), submit_request, &submit_response).ok());
+    id = submit_response.job_id();
+  }
+  status = stub_->ListJobs(ctx(token).get(), request, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(response.jobs_size(), 1);
+  bool serving = false;
+  EXPECT_EQ(health_check(channel_, "", &serving).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_TRUE(health_check(channel_, token, &serving).ok());
+  EXPECT_TRUE(serving);
+  // Watch too.
+  gel::v1::WatchJobRequest watch_request;
+  watch_request.set_job_id(id);
+  grpc::ClientContext context;
+  auto reader = stub_->WatchJob(&context, watch_request);
+  JobUpdate update;
+  EXPECT_FALSE(reader->Read(&update));
+  EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
+}
+
+TEST_F(Service, ShutdownRefusesWorkWithUnavailableAndKeepsRunningJobsForTheNextStart) {
+  Script script;
+  script.rows = 3;
+  script.open_rows = 1;
+  script.linger_on_stop = 1500ms;  // a slow checkpoint: the server is still up meanwhile
+  start({}, 1, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json());
+  const std::string queued = submit_ok(tiny_scene_json());
+  ASSERT_TRUE(wait_for([&] { return get(id).rows() == 1; }));
+  grpc::Status watch_status;
+  std::thread watcher([&] { watch(id, &watch_status); });
+  std::this_thread::sleep_for(100ms);
+  std::thread stopper([&] { daemon_->shutdown(); });
+  ASSERT_TRUE(wait_for([&] { return daemon_->manager().shutting_down(); }));
+  std::string refused;
+  auto status = submit(tiny_scene_json(), &refused);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE);
+  stopper.join();
+  watcher.join();
+  EXPECT_EQ(watch_status.error_code(), grpc::StatusCode::UNAVAILABLE);
+  daemon_.reset();
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs WHERE state = 'running'"), 1);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs WHERE state = 'queued'"), 1);
+  // The next start runs both to the end.
+  script.open();
+  start({}, 1, scripted(script));
+  watch(id);
+  watch(queued);
+  EXPECT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(get(queued).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(curve(id).members(0).curve().rows_size(), 3);
+}
+
+void expect_same_curve(const gel::v1::Curve& a, const gel::v1::Curve& b) {
+  ASSERT_EQ(a.rows_size(), b.rows_size());
+  for (int i = 0; i < a.rows_size(); ++i) {
+    const auto &x = a.rows(i), &y = b.rows(i);
+    EXPECT_EQ(x.k(), y.k());
+    EXPECT_EQ(x.phi(), y.phi()) << "k " << x.k();
+    EXPECT_EQ(x.p(), y.p()) << "k " << x.k();
+    EXPECT_EQ(x.p_top(), y.p_top()) << "k " << x.k();
+    EXPECT_EQ(x.p_bot(), y.p_bot()) << "k " << x.k();
+    EXPECT_EQ(x.contact_number(), y.contact_number()) << "k " << x.k();
+    EXPECT_EQ(x.stored_energy(), y.stored_energy()) << "k " << x.k();
+    EXPECT_EQ(x.steps(), y.steps()) << "k " << x.k();
+    EXPECT_EQ(x.ruptures().normal(), y.ruptures().normal()) << "k " << x.k();
+  }
+}
+
+TEST_F(Service, JobStoppedByShutdownResumesOnRestartWithTheSameCurve) {
+  // Long enough (several targets) that the shutdown lands mid-way.
+  const std::string scene = tiny_scene_json(6, "fast");
+  start({}, 1);
+  const std::string reference = submit_ok(scene);
+  watch(reference);
+  ASSERT_EQ(get(reference).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  const auto expected = curve(reference).members(0).curve();
+  ASSERT_EQ(expected.rows_size(), 7);
+
+  const std::string id = submit_ok(scene);
+  // Stop the daemon as soon as the first target is reached.
+  watch(id, nullptr, [](const JobUpdate& u) { return !(u.kind() == JobUpdate::ROW && u.row().k() >= 1); });
+  stop();
+  const int rows_before = sqlite_count("SELECT count(*) FROM curve_rows WHERE job_id = '" + id + "'");
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs WHERE id = '" + id + "' AND state = 'running'"), 1);
+  EXPECT_GE(rows_before, 2);
+  if (rows_before == 7) GTEST_SKIP() << "the job finished before the shutdown reached it";
+
+  start({}, 1);
+  grpc::Status status;
+  auto updates = watch(id, &status);
+  ASSERT_TRUE(status.ok());
+  ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED) << get(id).error();
+  expect_same_curve(curve(id).members(0).curve(), expected);
+}
+
+TEST_F(Service, ListJobsFiltersAndPages) {
+  Script script;
+  script.rows = 1;
+  start({}, 2, scripted(script));
+  std::vector<std::string> ids;
+  for (int i = 0; i < 5; ++i) {
+    ids.push_back(submit_ok(tiny_scene_json(), {}, i % 2 ? "odd" : "even",
+                            {{"batch", i < 3 ? "a" : "b"}, {"index", std::to_string(i)}}));
+  }
+  for (const auto& id : ids) watch(id);
+  auto list = [&](gel::v1::ListJobsRequest request) {
+    std::vector<std::string> out;
+    for (int page = 0; page < 20; ++page) {
+      gel::v1::ListJobsResponse response;
+      auto status = stub_->ListJobs(ctx().get(), request, &response);
+      EXPECT_TRUE(status.ok()) << status.error_message();
+      for (const auto& job : response.jobs()) out.push_back(job.id());
+      if (response.next_page_token().empty()) break;
+      EXPECT_LE(response.jobs_size(), request.page_size());
+      request.set_page_token(response.next_page_token());
+    }
+    return out;
+  };
+  gel::v1::ListJobsRequest request;
+  request.set_page_size(2);
+  EXPECT_EQ(list(request), (std::vector<std::string>{ids[4], ids[3], ids[2], ids[1], ids[0]}));
+  {
+    gel::v1::ListJobsRequest one_page;
+    one_page.set_page_size(2);
+    gel::v1::ListJobsResponse response;
+    ASSERT_TRUE(stub_->ListJobs(ctx().get(), one_page, &response).ok());
+    EXPECT_EQ(response.jobs_size(), 2);
+    EXPECT_FALSE(response.next_page_token().empty());
+  }
+  gel::v1::ListJobsRequest by_label;
+  by_label.set_label("batch=a");
+  EXPECT_EQ(list(by_label), (std::vector<std::string>{ids[2], ids[1], ids[0]}));
+  by_label.set_label("index");
+  EXPECT_EQ(list(by_label).size(), 5u);
+  gel::v1::ListJobsRequest by_name;
+  by_name.set_name("odd");
+  EXPECT_EQ(list(by_name), (std::vector<std::string>{ids[3], ids[1]}));
+  gel::v1::ListJobsRequest by_state;
+  by_state.set_state(gel::v1::JOB_STATE_SUCCEEDED);
+  by_state.set_page_size(3);
+  EXPECT_EQ(list(by_state).size(), 5u);
+  by_state.set_state(gel::v1::JOB_STATE_QUEUED);
+  EXPECT_TRUE(list(by_state).empty());
+  by_name.set_label("batch=b");
+  EXPECT_EQ(list(by_name), (std::vector<std::string>{ids[3]}));
+}
+
+TEST_F(Service, EnsembleCurveHasMembersAndMeanStdPerPhiK) {
+  Script script;
+  script.rows = 3;
+  start({}, 1, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json(), {1, 2, 6});
+  watch(id);
+  ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  auto c = curve(id);
+  ASSERT_EQ(c.members_size(), 3);
+  EXPECT_EQ(c.members(2).seed(), 6u);
+  EXPECT_EQ(c.members(2).curve().scene().generator().seed(), 6u);
+  ASSERT_EQ(c.ensemble_size(), 3);
+  // P = seed * k over seeds 1, 2, 6 at k = 2: 2, 4, 12 -> mean 6, sample std sqrt(28).
+  const auto& row = c.ensemble(2);
+  EXPECT_EQ(row.k(), 2);
+  EXPECT_EQ(row.n(), 3);
+  EXPECT_DOUBLE_EQ(row.p().mean(), 6.0);
+  EXPECT_NEAR(row.p().std(), std::sqrt(28.0), 1e-12);
+  EXPECT_DOUBLE_EQ(row.phi().mean(), 0.2);
+  EXPECT_NEAR(row.phi().std(), 0.0, 1e-15);
+  auto json = nlohmann::json::parse(c.json());
+  ASSERT_EQ(json["rows"].size(), 3u);
+  EXPECT_DOUBLE_EQ(json["rows"][2]["P"].get<double>(), 6.0);
+  EXPECT_NEAR(json["rows"][2]["P_std"].get<double>(), std::sqrt(28.0), 1e-12);
+  EXPECT_EQ(json["members"].size(), 3u);
+  EXPECT_EQ(get(id).rows(), 9);
+}
+
+TEST_F(Service, RealEnsembleRunsEachSeed) {
+  start({}, 1);
+  const std::string id = submit_ok(tiny_scene_json(2), {3, 4});
+  watch(id);
+  ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED) << get(id).error();
+  auto c = curve(id);
+  ASSERT_EQ(c.members_size(), 2);
+  ASSERT_EQ(c.members(0).curve().rows_size(), 3);
+  ASSERT_EQ(c.members(1).curve().rows_size(), 3);
+  EXPECT_NE(c.members(0).curve().rows(0).phi(), c.members(1).curve().rows(0).phi());  // different gels
+  EXPECT_EQ(c.ensemble_size(), 3);
+}
+
+TEST_F(Service, QueryCurvesByBondLabelsAndParameters) {
+  Script script;
+  script.rows = 2;
+  start({}, 1, scripted(script));
+  const std::string a = submit_ok(tiny_scene_json(), {}, "a", {{"study", "s1"}});
+  const std::string b = submit_ok(
+      R"({"preset": "quick", "bond": {"preset": "bond2"}, "generator": {"n_floc": 8, "n_clusters": 8, "lx": 40, "ly": 50},
+          "compression": {"fidelity": "fast", "steps": 3}})",
+      {}, "b", {{"study", "s1"}});
+  const std::string c = submit_ok(tiny_scene_json(), {}, "c", {{"study", "s2"}});
+  for (const auto& id : {a, b, c}) watch(id);
+  auto query = [&](const gel::v1::QueryCurvesRequest& request) {
+    gel::v1::QueryCurvesResponse response;
+    auto status = stub_->QueryCurves(ctx().get(), request, &response);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    std::vector<std::string> ids;
+    for (const auto& e : response.curves()) {
+      ids.push_back(e.job().id());
+      EXPECT_EQ(e.curve().members(0).curve().rows_size(), 2);
+    }
+    return ids;
+  };
+  gel::v1::QueryCurvesRequest request;
+  EXPECT_EQ(query(request), (std::vector<std::string>{c, b, a}));
+  request.set_bond_preset("bond2");
+  EXPECT_EQ(query(request), (std::vector<std::string>{b}));
+  request.clear_bond_preset();
+  (*request.mutable_labels())["study"] = "s1";
+  EXPECT_EQ(query(request), (std::vector<std::string>{b, a}));
+  auto* p = request.add_parameters();
+  p->set_field("generator.lx");
+  p->set_min(35);
+  EXPECT_EQ(query(request), (std::vector<std::string>{b}));
+  p->clear_min();
+  p->set_equals("30");
+  EXPECT_EQ(query(request), (std::vector<std::string>{a}));
+  request.clear_labels();
+  p->set_equals("fast");
+  p->set_field("compression.fidelity");
+  EXPECT_EQ(query(request).size(), 3u);
+  request.set_state(gel::v1::JOB_STATE_FAILED);
+  EXPECT_TRUE(query(request).empty());
+  gel::v1::QueryCurvesRequest bad;
+  bad.add_parameters()->set_equals("1");
+  gel::v1::QueryCurvesResponse response;
+  auto status = stub_->QueryCurves(ctx().get(), bad, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message().rfind("parameters[0].field", 0), 0u);
+}
+
+TEST_F(Service, FailedRunIsFailedWithItsMessage) {
+  auto executor = std::make_shared<FnExecutor>([](const geld::RunContext&) -> geld::RunResult {
+    throw std::runtime_error("numerical instability at step 42");
+  });
+  start({}, 1, executor);
+  const std::string id = submit_ok(tiny_scene_json());
+  auto updates = watch(id);
+  const auto job = get(id);
+  EXPECT_EQ(job.state(), gel::v1::JOB_STATE_FAILED);
+  EXPECT_NE(job.error().find("step 42"), std::string::npos);
+}
+
+TEST(Store, MigratesFromAnOlderSchemaVersion) {
+  TempDir dir;
+  const std::string path = (fs::path(dir.path()) / "geld.sqlite").string();
+  std::string id;
+  {
+    geld::Store store(path);
+    EXPECT_EQ(store.schema_version(), geld::Store::kSchemaVersion);
+    gel::v1::Job job;
+    job.set_name("old");
+    job.add_seeds(7);
+    job.set_particles(64);
+    job.set_created_unix_ms(1);
+    id = store.insert_job(job, "{}", {});
+  }
+  // Turn the file into a version 1 database: no indexes (v2), no member_runs table (v3).
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    const char* sql =
+        "DROP TABLE member_runs; DROP INDEX jobs_state; DROP INDEX jobs_name; DROP INDEX job_labels_kv; "
+        "DROP INDEX parameters_name; DROP INDEX states_job; DROP INDEX logs_job; DROP INDEX events_job; "
+        "UPDATE schema_version SET version = 1;";
+    char* err = nullptr;
+    ASSERT_EQ(sqlite3_exec(db, sql, nullptr, nullptr, &err), SQLITE_OK) << (err ? err : "");
+    sqlite3_close(db);
+  }
+  {
+    geld::Store store(path);
+    EXPECT_EQ(store.schema_version(), geld::Store::kSchemaVersion);
+    auto job = store.get_job(id);
+    ASSERT_TRUE(job.has_value());
+    EXPECT_EQ(job->name(), "old");
+    EXPECT_EQ(job->seeds(0), 7u);
+    store.set_member_handle(id, 0, 7, "slurm", "1234:0", 2);
+    EXPECT_EQ(store.member_handle(id, 0), "1234:0");
+    EXPECT_EQ(store.member_handle(id, 1), "");
+  }
+  // A newer schema than this geld knows is refused.
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "UPDATE schema_version SET version = 99", nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+    EXPECT_THROW(geld::Store store(path), geld::StoreError);
+  }
+}
+
+TEST(Store, WalModeAndSchemaTables) {
+  TempDir dir;
+  const std::string path = (fs::path(dir.path()) / "geld.sqlite").string();
+  geld::Store store(path);
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* stmt = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA journal_mode", -1, &stmt, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
+  EXPECT_EQ(std::string(reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0))), "wal");
+  sqlite3_finalize(stmt);
+  for (const char* table : {"schema_version", "jobs", "job_labels", "states", "parameters", "curve_rows", "events",
+                            "logs", "member_runs"}) {
+    ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = ?", -1, &stmt,
+                                 nullptr),
+              SQLITE_OK);
+    sqlite3_bind_text(stmt, 1, table, -1, SQLITE_STATIC);
+    ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
+    EXPECT_EQ(sqlite3_column_int(stmt, 0), 1) << table;
+    sqlite3_finalize(stmt);
+  }
+  sqlite3_close(db);
+}
+
+TEST(Address, LoopbackDetection) {
+  EXPECT_TRUE(geld::is_loopback_address("127.0.0.1:50051"));
+  EXPECT_TRUE(geld::is_loopback_address("127.1.2.3:1"));
+  EXPECT_TRUE(geld::is_loopback_address("localhost:50051"));
+  EXPECT_TRUE(geld::is_loopback_address("[::1]:50051"));
+  EXPECT_FALSE(geld::is_loopback_address("0.0.0.0:50051"));
+  EXPECT_FALSE(geld::is_loopback_address("[::]:50051"));
+  EXPECT_FALSE(geld::is_loopback_address("192.168.1.2:50051"));
+  EXPECT_FALSE(geld::is_loopback_address("example.org:50051"));
+}
+
+}  // namespace
