@@ -59,7 +59,8 @@ Correlation radial_average(const CorrelationMap& map, const CorrelationOptions& 
 // D_f(r) = d + d ln C / d ln r with d = 2: at each bin with r > 0 and C > 0, the slope of a
 // least-squares line through the points (ln r, ln C) with |ln r' - ln r| <= half_window (at
 // least 3 points; fewer: no value). Default half window 0.1 in ln r, i.e. a window of r e^{-0.1}
-// .. r e^{0.1} (about +-10%), which at the default pixel holds >= 3 bins from r ~ 1.5 a up.
+// .. r e^{0.1} (about +-10%), which at the default pixel holds >= 3 bins from r ~ 2.5 a up
+// (bin / r <= 0.1): narrow enough to keep the floc and network scales apart.
 inline constexpr double kDefaultDfHalfWindow = 0.1;
 struct DfProfile {
   std::vector<double> r;
