@@ -16,6 +16,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "compression_internal.hpp"
@@ -285,7 +286,7 @@ class CompressionRun {
         state_.spanned = 1;
       } else {
         const double jump = std::min(distance_to_first_contact(system_, group), std::max(gap, 0.0));
-        system_.translate_wall_group(kTopWall, -jump);
+        if (jump > 0.0) system_.translate_wall_group(kTopWall, -jump);
         gap -= jump;
         if (gap <= 0.0) return begin_wait();
       }
