@@ -2,13 +2,14 @@
 #include <stdexcept>
 
 #include "executor.hpp"
+#include "slurm_executor.hpp"
 
 namespace geld {
 
 std::unique_ptr<Executor> make_executor(const ExecutorConfig& config) {
   if (config.name == "threads") return make_thread_executor();
-  // "slurm": issue 8 adds make_slurm_executor(config) here.
-  throw std::invalid_argument("executor: unknown executor '" + config.name + "' (available: threads)");
+  if (config.name == "slurm") return make_slurm_executor(config);
+  throw std::invalid_argument("executor: unknown executor '" + config.name + "' (available: threads, slurm)");
 }
 
 }  // namespace geld

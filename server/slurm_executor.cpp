@@ -225,7 +225,13 @@ ProgressLine parse_progress_line(const std::string& text) {
   const std::string type = line.value("type", "");
   if (type == "progress") {
     parsed.kind = ProgressLine::Progress;
-    proto_from_json(payload(line, "progress"), parsed.progress, "progress");
+    nlohmann::json progress = payload(line, "progress");
+    // gelsim writes the pressure as "P" (curve.json's spelling); the proto field is "p".
+    if (progress.contains("P") && !progress.contains("p")) {
+      progress["p"] = progress["P"];
+      progress.erase("P");
+    }
+    proto_from_json(progress, parsed.progress, "progress");
   } else if (type == "row") {
     parsed.kind = ProgressLine::Row;
     const nlohmann::json row = payload(line, "row");

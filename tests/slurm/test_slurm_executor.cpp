@@ -129,6 +129,15 @@ TEST(SlurmPieces, ParsesProgressRowsAndOutcomes) {
   EXPECT_EQ(p.progress.k_total(), 5);
   EXPECT_DOUBLE_EQ(p.progress.target_phi(), 0.31);
   EXPECT_EQ(p.progress.phase(), "compressing");
+  // What gelsim compress writes: flat, "P" for the pressure.
+  p = geld::slurm::parse_progress_line(
+      R"({"type":"progress","phase":"compressing","k":1,"k_total":8,"phi":0.2,"target_phi":0.25,"P":0.125,)"
+      R"("events":{"normal":3,"sliding":1,"rolling":2,"created":4},"steps":1000,"elapsed_seconds":1.5,"remaining_seconds":9.0})");
+  EXPECT_EQ(p.kind, ProgressLine::Progress);
+  EXPECT_EQ(p.progress.k_total(), 8);
+  EXPECT_DOUBLE_EQ(p.progress.p(), 0.125);
+  EXPECT_EQ(p.progress.events().created(), 4);
+  EXPECT_EQ(p.progress.steps(), 1000);
   // Flat progress, unknown fields ignored.
   p = geld::slurm::parse_progress_line(R"({"type":"progress","k":3,"phi":0.4,"future_field":1})");
   EXPECT_EQ(p.kind, ProgressLine::Progress);
@@ -150,6 +159,12 @@ TEST(SlurmPieces, ParsesProgressRowsAndOutcomes) {
   EXPECT_EQ(p.row.phi(), row.phi());  // bit for bit
   EXPECT_EQ(p.row.p(), row.p());
   EXPECT_EQ(p.row.ruptures().normal(), 7);
+  nlohmann::json flat = gel::curve_row_to_json(row);  // what gelsim compress writes
+  flat["type"] = "row";
+  p = geld::slurm::parse_progress_line(flat.dump());
+  EXPECT_EQ(p.kind, ProgressLine::Row);
+  EXPECT_EQ(p.row.phi(), row.phi());
+  EXPECT_EQ(p.row.p_bot(), 0.5);
   p = geld::slurm::parse_progress_line(R"({"type":"row","k":5,"phi":0.5,"pTop":1.5,"contact_number":2})");
   EXPECT_EQ(p.kind, ProgressLine::Row);
   EXPECT_EQ(p.row.k(), 5);
@@ -157,10 +172,11 @@ TEST(SlurmPieces, ParsesProgressRowsAndOutcomes) {
   EXPECT_DOUBLE_EQ(p.row.contact_number(), 2.0);
 
   EXPECT_EQ(geld::slurm::parse_progress_line(R"({"type":"done"})").kind, ProgressLine::Done);
-  p = geld::slurm::parse_progress_line(R"({"type":"failed","error":"boom"})");
+  p = geld::slurm::parse_progress_line(R"({"type":"failed","kind":"instability","error":"boom"})");
   EXPECT_EQ(p.kind, ProgressLine::Failed);
   EXPECT_EQ(p.error, "boom");
   EXPECT_EQ(geld::slurm::parse_progress_line(R"({"type":"log","message":"x"})").kind, ProgressLine::Other);
+  EXPECT_EQ(geld::slurm::parse_progress_line(R"({"type":"stopped","out":"d","rows":2})").kind, ProgressLine::Other);
   EXPECT_THROW(geld::slurm::parse_progress_line("{\"type\":\"row\""), std::runtime_error);
   EXPECT_THROW(geld::slurm::parse_progress_line(R"({"type":"row","k":"many"})"), std::runtime_error);
 }
