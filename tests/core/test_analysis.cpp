@@ -25,6 +25,7 @@
 #include "gel/analysis/run_analysis.hpp"
 #include "gel/analysis/structure.hpp"
 #include "gel/configuration.hpp"
+#include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
 #include "gel/generator.hpp"
 
@@ -483,6 +484,43 @@ TEST(Structure, AnalysisOfAGeneratedGelHasEveryPart) {
   for (const char* key : {"phi", "correlation", "fractal_dimension_profile", "fractal_dimension_fit", "xi_05"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["correlation"]["r"].size(), j["correlation"]["C"].size());
+}
+
+TEST(RunAnalysis, DirectoryWithCurveAndSnapshotsGivesFitsStructureAndPictures) {
+  // A run directory as the compression writes it: curve.json plus snapshots/k_NNN.pb named in
+  // the rows. Two members (the same curve twice) make an ensemble with zero spread.
+  const std::string dir = temp_dir("run");
+  gel::v1::Curve curve = planted_curve();
+  std::filesystem::create_directories(dir + "/snapshots");
+  const Configuration gel = quick_gel(2);
+  for (int k : {0, 15}) {
+    char name[32];
+    std::snprintf(name, sizeof name, "snapshots/k_%03d.pb", k);
+    write_configuration(gel, dir + "/" + name);
+    curve.mutable_rows(k)->set_snapshot(name);
+  }
+  write_curve(curve, dir);
+  const RunAnalysis run = analyse_runs({dir, dir});
+  ASSERT_TRUE(run.curve.power_law.has_value());
+  EXPECT_NEAR(run.curve.power_law->exponent, 3.0, 1e-9);  // planted P = phi^3
+  EXPECT_NEAR(run.curve.power_law->prefactor, 1.0, 1e-9);
+  ASSERT_TRUE(run.curve.regimes.multi_mode_start_phi.has_value());
+  EXPECT_NEAR(*run.curve.regimes.multi_mode_start_phi, curve.rows(10).phi(), 1e-12);
+  ASSERT_EQ(run.structure.size(), 2u);
+  EXPECT_EQ(run.structure[0].snapshots.size(), 2u);
+  ASSERT_TRUE(run.structure[0].df_fit.mean.has_value());
+  EXPECT_NEAR(*run.structure[0].df_fit.std, 0.0, 1e-12);
+  const nlohmann::json j = to_json(run);
+  EXPECT_EQ(j["structure"].size(), 2u);
+  EXPECT_TRUE(j["regimes"].contains("multi_mode_start_phi"));
+  if (!find_gnuplot().empty()) {
+    PictureOptions options;
+    options.plot_width = 300, options.plot_height = 220, options.snapshot_size = 200;
+    const auto written = render_run_pictures(run, dir + "/plots", options);
+    EXPECT_EQ(written.size(), 8u + 2u);  // 8 plots, 2 snapshots
+    for (const auto& path : written) EXPECT_GT(std::filesystem::file_size(path), 1000u) << path;
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -128,19 +128,25 @@ void render_plot(const PlotFigure& figure, const std::string& path) {
     gp << "set label " << arrow << " " << quoted(label) << " at " << x << ", graph 0.03 rotate by 90 left offset -0.8,0 noenhanced\n";
     ++arrow;
   }
-  gp << "plot ";
-  bool first = true;
-  for (std::size_t i = 0; i < figure.series.size(); ++i) {
-    if (!has_points[i]) continue;
-    const auto& s = figure.series[i];
-    if (!first) gp << ", \\\n     ";
-    first = false;
-    gp << quoted(data_path.string()) << " index " << i;
-    if (!s.y_error.empty()) gp << " using 1:2:3 with yerrorlines";
-    else gp << " using 1:2 with " << s.style;
-    gp << " lw 1.5 title " << quoted(s.title);
+  if (std::find(has_points.begin(), has_points.end(), true) == has_points.end()) {
+    // Nothing to draw (e.g. xi^(0.5) undefined at every phi): an empty labelled frame saying so,
+    // since gnuplot refuses to plot only undefined points.
+    gp << "unset logscale\nunset arrow\nset xrange [0:1]\nset yrange [0:1]\nset format x \"\"\nset format y \"\"\n"
+       << "set label 99 \"no data\" at graph 0.5, graph 0.5 center\nplot -1 notitle";
+  } else {
+    gp << "plot ";
+    bool first = true;
+    for (std::size_t i = 0; i < figure.series.size(); ++i) {
+      if (!has_points[i]) continue;
+      const auto& s = figure.series[i];
+      if (!first) gp << ", \\\n     ";
+      first = false;
+      gp << quoted(data_path.string()) << " index " << i;
+      if (!s.y_error.empty()) gp << " using 1:2:3 with yerrorlines";
+      else gp << " using 1:2 with " << s.style;
+      gp << " lw 1.5 title " << quoted(s.title);
+    }
   }
-  if (first) gp << "NaN notitle";  // nothing to draw: still an empty, labelled frame
   gp << "\nunset output\n";
   write_file_atomically(script_path.string(), gp.str());
 
