@@ -13,6 +13,7 @@
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
+#include "gel/generator.hpp"
 #include "job_manager.hpp"
 
 namespace geld {
@@ -130,12 +131,17 @@ class CompressionEngine final : public Engine {
     // problem, whatever else is wrong with the scene.
     {
       std::int64_t n_floc = scene.generator().n_floc(), n_clusters = scene.generator().n_clusters();
-      if (!scene.preset().empty() && (n_floc == 0 || n_clusters == 0)) {
+      if (n_floc == 0 || n_clusters == 0) {
         try {
-          const auto preset = gel::scene_preset(scene.preset());
-          if (n_floc == 0) n_floc = preset.generator().n_floc();
-          if (n_clusters == 0) n_clusters = preset.generator().n_clusters();
+          std::string generator = scene.generator().preset();
+          if (generator.empty() && !scene.preset().empty()) generator = gel::scene_preset(scene.preset()).generator().preset();
+          if (!generator.empty()) {
+            const auto preset = gel::generator_preset(generator);
+            if (n_floc == 0) n_floc = preset.n_floc();
+            if (n_clusters == 0) n_clusters = preset.n_clusters();
+          }
         } catch (const std::exception&) {
+          // An unknown preset: resolving names it below.
         }
       }
       if (n_floc > 0 && n_clusters > 0 && n_floc * n_clusters > limits.max_particles) {

@@ -570,6 +570,8 @@ TEST_F(Service, TooManyParticlesIsResourceExhausted) {
   status = submit("{\"preset\": \"quick\", \"generator\": {\"n_floc\": 1073741824, \"n_clusters\": 2000000000}}", &id);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
   EXPECT_EQ(status.error_message().rfind("scene.generator", 0), 0u);
+  status = submit("{\"preset\": \"quick\", \"generator\": {\"n_floc\": 1073741824}}", &id);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
   EXPECT_FALSE(submit_ok(tiny_scene_json()).empty());  // 64 particles: fine
   gel::v1::SubmitJobRequest many;
   many.set_scene_json(tiny_scene_json());

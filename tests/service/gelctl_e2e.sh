@@ -1,0 +1,179 @@
+#!/usr/bin/env bash
+# End to end with the real binaries: geld on a free loopback port with its SQLite file in a
+# temporary directory, driven by gelctl and by the Python client.
+#   submit --watch / status --json / curve --json|--csv / list / logs / cancel
+#   bad input: exit codes and one-line messages, and the daemon keeps serving
+#   SIGKILL mid-job, restart: the job resumes and ends with the curve of an uninterrupted run
+#   remote mode: --listen 0.0.0.0 needs --token-file; calls without the token UNAUTHENTICATED
+#
+#   gelctl_e2e.sh BUILD_DIR
+set -euo pipefail
+build=$(cd "$1" && pwd)
+source_dir=$(cd "$(dirname "$0")/../.." && pwd)
+geld=$build/server/geld
+gelctl=$build/client/gelctl
+py=/usr/bin/python3
+work=$(mktemp -d /tmp/gelctl-e2e.XXXXXX)
+pids=()
+cleanup() {
+  for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
+  rm -rf "$work"
+}
+trap cleanup EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+free_port() { $py -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1]); s.close()'; }
+
+# start_geld DATA_DIR PORT [extra flags]: sets geld_pid, waits until it answers.
+start_geld() {
+  local data=$1 port=$2
+  shift 2
+  "$geld" --listen "127.0.0.1:$port" --data-dir "$data" --log-level info --workers 2 "$@" >>"$data.log" 2>&1 &
+  geld_pid=$!
+  pids+=("$geld_pid")
+  for _ in $(seq 1 300); do
+    "$gelctl" --server "127.0.0.1:$port" list >/dev/null 2>&1 && return 0
+    kill -0 "$geld_pid" 2>/dev/null || { cat "$data.log" >&2; fail "geld did not start"; }
+    sleep 0.05
+  done
+  fail "geld did not answer"
+}
+
+port=$(free_port)
+server=127.0.0.1:$port
+data=$work/data
+start_geld "$data" "$port"
+ctl() { "$gelctl" --server "$server" "$@"; }
+TINY=(--preset quick --fidelity fast --set generator.n_floc=8 --set generator.n_clusters=8
+      --set generator.lx=30 --set generator.ly=50 --set compression.steps=3)
+
+# ---- submit --watch, status, curve ---------------------------------------------------------
+ctl submit "${TINY[@]}" --seed 1 --name e2e --label suite=e2e --watch >"$work/watch.txt" || fail "submit --watch"
+job=$(head -n 1 "$work/watch.txt")
+[[ $job =~ ^job-[0-9]+$ ]] || fail "first line of submit is not a job id: $job"
+grep -q "succeeded" "$work/watch.txt" || fail "watch did not show success"
+[ "$(grep -c '^  k' "$work/watch.txt")" -eq 4 ] || fail "watch did not show 4 rows"
+ctl status "$job" --json >"$work/status.json"
+$py - "$work/status.json" <<'PY' || fail "status --json"
+import json, sys
+job = json.load(open(sys.argv[1]))
+assert job["state"] == "succeeded", job["state"]
+assert job["rows"] == 4 and job["labels"] == {"suite": "e2e"} and job["name"] == "e2e"
+PY
+ctl curve "$job" --json >"$work/curve.json"
+$py - "$work/curve.json" <<'PY' || fail "curve --json"
+import json, sys
+curve = json.load(open(sys.argv[1]))
+rows = curve["rows"]
+assert len(rows) == 4, len(rows)
+for row in rows:
+    for key in ("phi", "P", "P_top", "P_bot", "contact_number"):
+        assert key in row, key
+assert rows[-1]["phi"] > rows[0]["phi"]
+PY
+ctl curve "$job" --csv --out "$work/curve.csv"
+[ "$(wc -l <"$work/curve.csv")" -eq 5 ] || fail "curve --csv: expected a header and 4 rows"
+ctl curve "$job" | grep -q "256\|64 particles" || fail "curve table"
+ctl list --label suite=e2e | grep -q "$job" || fail "list --label"
+ctl list --state running | grep -q "$job" && fail "list --state running shows a finished job"
+ctl logs "$job" | grep -q "finished" || fail "logs"
+ctl query --label suite=e2e | grep -q "$job" || fail "query"
+echo "ok: submit --watch, status --json, curve --json/--csv, list, logs, query ($job)"
+
+# ---- bad input: exit codes and messages -----------------------------------------------------
+expect() {  # expect CODE PATTERN -- command...
+  local code=$1 pattern=$2 status=0
+  shift 3
+  "$@" >"$work/out.txt" 2>"$work/err.txt" || status=$?
+  [ "$status" -eq "$code" ] || fail "$* exited $status, expected $code: $(cat "$work/err.txt")"
+  grep -q -- "$pattern" "$work/err.txt" || fail "$*: stderr lacks '$pattern': $(cat "$work/err.txt")"
+  [ "$(wc -l <"$work/err.txt")" -eq 1 ] || fail "$*: more than one line on stderr"
+}
+echo '{"preset": "quick", ' >"$work/broken.json"
+expect 2 "INVALID_ARGUMENT: scene_json" -- ctl submit --scene "$work/broken.json"
+expect 2 "INVALID_ARGUMENT: scene.preset" -- ctl submit --preset nope
+expect 2 "INVALID_ARGUMENT: scene.generator.lx" -- ctl submit --preset quick --set generator.lx=-5
+expect 2 "INVALID_ARGUMENT: scene.compression.w0" -- ctl submit --preset quick --set compression.w0=NaN
+expect 1 "RESOURCE_EXHAUSTED: scene.generator" -- ctl submit --preset quick --set generator.n_floc=1073741824
+expect 1 "NOT_FOUND" -- ctl status job-424242
+expect 1 "FAILED_PRECONDITION" -- ctl cancel "$job"
+expect 2 "seeds" -- ctl submit --preset quick --seeds 3-1
+expect 2 "submit" -- ctl submit
+ctl status "$job" >/dev/null || fail "geld stopped serving after bad input"
+echo "ok: bad input gets exit 2/1 with the status code and the field"
+
+# ---- cancel a running job ------------------------------------------------------------------
+long=$(ctl submit --preset quick --seed 5)
+for _ in $(seq 1 600); do
+  [ "$(ctl status "$long" --json | $py -c 'import json,sys; print(json.load(sys.stdin)["state"])')" = running ] && break
+  sleep 0.05
+done
+ctl cancel "$long" | grep -q cancelled || fail "cancel of a running job"
+echo "ok: cancel"
+
+# ---- the Python client ---------------------------------------------------------------------
+$py "$source_dir/client/python/gel_client.py" --stubs "$build/client/python" --server "$server" \
+  --preset quick --set compression.fidelity=fast --set generator.n_floc=8 --set generator.n_clusters=8 \
+  --set generator.lx=30 --set generator.ly=50 --set compression.steps=3 --seed 1 --seed 2 >"$work/py.txt" \
+  || { cat "$work/py.txt" >&2; fail "python client"; }
+grep -q "JOB_STATE_SUCCEEDED" "$work/py.txt" || fail "python client did not see success"
+echo "ok: python client (2-seed ensemble)"
+
+# ---- SIGKILL mid-job, restart, same curve ---------------------------------------------------
+KILLED=(--preset quick --fidelity fast --seed 3)
+ctl submit "${KILLED[@]}" --watch >"$work/reference.txt" || fail "reference run"
+reference=$(head -n 1 "$work/reference.txt")
+ctl curve "$reference" --json >"$work/reference.json"
+victim=$(ctl submit "${KILLED[@]}")
+rows=0
+for _ in $(seq 1 2000); do
+  rows=$(ctl status "$victim" --json | $py -c 'import json,sys; print(json.load(sys.stdin)["rows"])')
+  [ "$rows" -ge 2 ] && break
+  sleep 0.02
+done
+kill -KILL "$geld_pid"
+wait "$geld_pid" 2>/dev/null || true
+stored=$($py -c "import sqlite3,sys; print(sqlite3.connect('$data/geld.sqlite').execute(\"select count(*) from curve_rows where job_id='$victim'\").fetchone()[0])")
+echo "killed geld with $stored of 7 rows of $victim stored"
+t0=$(date +%s.%N)
+start_geld "$data" "$port"
+t1=$(date +%s.%N)
+ctl watch "$victim" >"$work/resumed.txt" || { cat "$work/resumed.txt" >&2; fail "resumed job did not succeed"; }
+t2=$(date +%s.%N)
+ctl curve "$victim" --json >"$work/resumed.json"
+$py - "$work/reference.json" "$work/resumed.json" <<'PY' || fail "resumed curve differs from the uninterrupted one"
+import json, sys
+a = json.load(open(sys.argv[1]))["rows"]
+b = json.load(open(sys.argv[2]))["rows"]
+assert len(a) == len(b) == 7, (len(a), len(b))
+for x, y in zip(a, b):
+    for key in ("k", "phi", "P", "P_top", "P_bot", "contact_number", "stored_energy", "steps"):
+        assert x[key] == y[key], (x["k"], key, x[key], y[key])
+PY
+grep -q "resum" "$data.log" || fail "geld's log does not mention the resumption"
+echo "ok: SIGKILL with $stored rows stored; restart answered in $(awk "BEGIN{printf \"%.2f\", $t1-$t0}") s," \
+  "the job finished $(awk "BEGIN{printf \"%.2f\", $t2-$t1}") s later with the uninterrupted curve"
+
+kill -TERM "$geld_pid"
+wait "$geld_pid" || fail "geld exited non-zero on SIGTERM"
+
+# ---- remote mode ---------------------------------------------------------------------------
+status=0
+"$geld" --listen "0.0.0.0:$(free_port)" --data-dir "$work/remote" >"$work/remote.log" 2>&1 || status=$?
+[ "$status" -eq 2 ] || fail "geld on 0.0.0.0 without --token-file exited $status, expected 2"
+echo "e2e-token-$$" >"$work/token"
+rport=$(free_port)
+"$geld" --listen "0.0.0.0:$rport" --token-file "$work/token" --data-dir "$work/remote" >"$work/remote.log" 2>&1 &
+geld_pid=$!
+pids+=("$geld_pid")
+for _ in $(seq 1 300); do
+  "$gelctl" --server "127.0.0.1:$rport" --token-file "$work/token" list >/dev/null 2>&1 && break
+  sleep 0.05
+done
+expect 1 "UNAUTHENTICATED" -- "$gelctl" --server "127.0.0.1:$rport" list
+echo "wrong" >"$work/wrong"
+expect 1 "UNAUTHENTICATED" -- "$gelctl" --server "127.0.0.1:$rport" --token-file "$work/wrong" submit --preset quick
+"$gelctl" --server "127.0.0.1:$rport" --token-file "$work/token" list >/dev/null || fail "token refused"
+GELD_TOKEN_FILE=$work/token "$gelctl" --server "127.0.0.1:$rport" list >/dev/null || fail "GELD_TOKEN_FILE refused"
+kill -TERM "$geld_pid"
+wait "$geld_pid" || fail "remote geld exited non-zero"
+echo "ok: remote mode requires the token"
