@@ -565,9 +565,10 @@ void JobManager::run_job(const std::shared_ptr<Live>& live) {
       ctx.scene = job.scene();
       ctx.scene.mutable_generator()->set_seed(seed);
       ctx.scene_json = engine_->scene_json(ctx.scene);
-      ctx.out_dir = (fs::absolute(options_.data_dir) / job.out_dir() /
-                     ("m" + std::to_string(member) + "-seed" + std::to_string(seed)))
-                        .string();
+      // Built with append: GCC 12's -Wrestrict misfires on "m" + std::to_string(...).
+      std::string member_dir("m");
+      member_dir.append(std::to_string(member)).append("-seed").append(std::to_string(seed));
+      ctx.out_dir = (fs::absolute(options_.data_dir) / job.out_dir() / member_dir).string();
       fs::create_directories(ctx.out_dir);
       ctx.stop = &live->stop;
       ctx.cancel = &live->cancel_requested;
