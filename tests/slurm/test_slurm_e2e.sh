@@ -5,6 +5,8 @@
 #   3. geld --executor slurm (shared dir in the temp dir): the same submission, followed to
 #      SUCCEEDED; its curve must equal the threads one (every column but wall_seconds);
 #   4. another slurm job, cancelled while its Slurm job runs: CANCELLED in geld and in Slurm;
+#      and one during which geld stops (SIGTERM) and starts again: its Slurm job keeps running,
+#      is followed again (not resubmitted) and the job SUCCEEDS; the Slurm ids are in SQLite;
 #   5. prints the wall time submit -> SUCCEEDED of both executors and the Slurm overhead, on the
 #      ensemble and (median of three) on a single-member job with ~2 s of compute;
 #   6. stops geld (SIGTERM, exit 0 expected) and the Slurm daemons, by their pids.
@@ -245,6 +247,48 @@ for _ in $(seq 1 200); do
 done
 [ "$slurm_state" = "CANCELLED" ] || fail "Slurm job $slurm_id is '$slurm_state' after gelctl cancel"
 echo "cancel: job $cancel_job CANCELLED; its Slurm job $slurm_id CANCELLED"
+
+# ---- 4b. geld restarts while a Slurm job runs: the job keeps running and is followed again ------
+"$gelctl" --server "$server" submit "${ensemble_args[@]}" --seed 4 --name e2e-restart >"$work/submit-restart.txt" \
+  || fail "gelctl submit (restart)"
+restart_job=$(head -n 1 "$work/submit-restart.txt" | tr -d '[:space:]')
+restart_slurm_id=""
+for _ in $(seq 1 300); do
+  line=$(squeue -h -t all -o '%i %j %T' | awk -v n="gel-$restart_job-0" '$2 == n {print $1, $3}' | tail -n 1)
+  if [ "${line#* }" = "RUNNING" ]; then
+    restart_slurm_id=${line%% *}
+    break
+  fi
+  sleep 0.1
+done
+[ -n "$restart_slurm_id" ] || fail "job $restart_job never showed a RUNNING Slurm job"
+stop_geld "$slurm_pid"
+[ "$(squeue -h -t all -j "$restart_slurm_id" -o %T)" = "RUNNING" ] \
+  || fail "Slurm job $restart_slurm_id did not keep running across geld's shutdown"
+start_geld slurm --executor slurm --workers 2 --slurm-shared-dir "$shared" --slurm-gelsim "$gelsim" \
+  --slurm-poll-interval 0.2 --slurm-max-requeues 2
+slurm_pid=$last_geld_pid
+state=""
+for _ in $(seq 1 1800); do
+  state=$("$gelctl" --server "$server" status "$restart_job" --json | json_field state)
+  case "${state^^}" in SUCCEEDED | FAILED | CANCELLED) break ;; esac
+  sleep 0.2
+done
+[ "${state^^}" = "SUCCEEDED" ] || fail "job $restart_job is $state after geld's restart, not SUCCEEDED"
+submitted=$(grep -c "gel-$restart_job-0" <(squeue -h -t all -o '%j') || true)
+[ "$submitted" = "1" ] || fail "job $restart_job was submitted to Slurm $submitted times; expected 1 (followed again)"
+echo "restart: geld stopped and restarted while Slurm job $restart_slurm_id ran; job $restart_job SUCCEEDED without resubmission"
+
+# ---- the Slurm job ids are stored with the jobs (member_runs) ----------------------------------
+python3 - "$work/data-slurm/geld.sqlite" "$slurm_job" <<'EOF' || fail "Slurm job ids not stored with the job"
+import re, sqlite3, sys
+db = sqlite3.connect(f"file:{sys.argv[1]}?mode=ro", uri=True)
+rows = db.execute("SELECT member, executor, handle FROM member_runs WHERE job_id = ? ORDER BY member",
+                  (sys.argv[2],)).fetchall()
+assert [r[0] for r in rows] == [0, 1], rows
+assert all(r[1] == "slurm" and re.fullmatch(r"\d+:\d+", r[2]) for r in rows), rows
+print("stored Slurm handles (job id:requeues):", ", ".join(f"member {m}: {h}" for m, _, h in rows))
+EOF
 
 stop_geld "$slurm_pid"
 
