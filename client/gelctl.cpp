@@ -2,12 +2,14 @@
 // Exit codes: 0 success; 2 bad input (ours or the server's INVALID_ARGUMENT); 1 any other error
 // (the gRPC status code name and the server's one-line message on stderr); 3 a watched job
 // that ended failed or cancelled.
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -419,6 +421,62 @@ void write_out(const std::string& path, const std::string& text) {
   out << text;
 }
 
+// gelsim next to gelctl (installed side by side, or the build tree's core/), $GELSIM, or PATH.
+std::string find_gelsim() {
+  if (const char* env = std::getenv("GELSIM"); env && *env) return env;
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    for (const auto& candidate : {exe.parent_path() / "gelsim", exe.parent_path() / ".." / "core" / "gelsim"}) {
+      if (std::filesystem::exists(candidate)) return candidate.string();
+    }
+  }
+  return "gelsim";
+}
+
+// --png: the members' curves as run directories, `gelsim plot` on them (an ensemble when
+// several), and its P_y(phi) picture copied to `path`.
+void plot_png(const gel::v1::GetCurveResponse& response, const std::string& path) {
+  const json whole = json::parse(response.json());
+  std::vector<json> curves;
+  if (whole.contains("members")) {
+    for (const auto& m : whole["members"]) curves.push_back(m);
+  } else {
+    curves.push_back(whole);
+  }
+  std::string pattern = (std::filesystem::temp_directory_path() / "gelctl-plot.XXXXXX").string();
+  if (!mkdtemp(pattern.data())) throw std::runtime_error("--png: cannot create a temporary directory");
+  const std::filesystem::path tmp = pattern;
+  std::vector<std::string> args{find_gelsim(), "plot"};
+  for (std::size_t i = 0; i < curves.size(); ++i) {
+    const auto dir = tmp / ("m" + std::to_string(i));
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "curve.json") << curves[i].dump();
+    args.push_back(dir.string());
+  }
+  for (const char* extra : {"--no-snapshots", "--out"}) args.emplace_back(extra);
+  args.push_back((tmp / "plots").string());
+  std::cout.flush();
+  std::fflush(nullptr);  // the child must not write our buffered output again
+  const pid_t pid = fork();
+  if (pid == 0) {
+    if (!freopen("/dev/null", "w", stdout)) _exit(127);
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execvp(argv[0], argv.data());
+    _exit(127);
+  }
+  int status = -1;
+  if (pid > 0) waitpid(pid, &status, 0);
+  const auto picture = tmp / "plots" / "pressure.png";
+  const bool ok = pid > 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0 && std::filesystem::exists(picture);
+  if (ok) std::filesystem::copy_file(picture, path, std::filesystem::copy_options::overwrite_existing);
+  std::error_code ec;
+  std::filesystem::remove_all(tmp, ec);
+  if (!ok) throw std::runtime_error("--png: `" + args[0] + " plot` failed (set GELSIM to gelsim's path)");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -654,9 +712,7 @@ int main(int argc, char** argv) {
         print_curve_table(response, out);
       }
       write_out(out_file, out.str());
-      if (!png_file.empty()) {
-        throw UsageError("--png: plotting is not available in this build (no `gelsim plot`)");
-      }
+      if (!png_file.empty()) plot_png(response, png_file);
       return 0;
     }
 

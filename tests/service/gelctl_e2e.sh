@@ -73,11 +73,13 @@ PY
 ctl curve "$job" --csv --out "$work/curve.csv"
 [ "$(wc -l <"$work/curve.csv")" -eq 5 ] || fail "curve --csv: expected a header and 4 rows"
 ctl curve "$job" | grep -q "256\|64 particles" || fail "curve table"
+ctl curve "$job" --png "$work/curve.png" >/dev/null || fail "curve --png"
+[ "$(head -c 4 "$work/curve.png" | tail -c 3)" = PNG ] || fail "curve --png did not write a PNG"
 ctl list --label suite=e2e | grep -q "$job" || fail "list --label"
 ctl list --state running | grep -q "$job" && fail "list --state running shows a finished job"
 ctl logs "$job" | grep -q "finished" || fail "logs"
 ctl query --label suite=e2e | grep -q "$job" || fail "query"
-echo "ok: submit --watch, status --json, curve --json/--csv, list, logs, query ($job)"
+echo "ok: submit --watch, status --json, curve --json/--csv/--png, list, logs, query ($job)"
 
 # ---- bad input: exit codes and messages -----------------------------------------------------
 expect() {  # expect CODE PATTERN -- command...
