@@ -165,6 +165,10 @@ class Service : public ::testing::Test {
   }
   void TearDown() override { stop(); }
 
+  // Scripts live as long as the fixture, so workers still inside one at the end of a test
+  // (stopped in TearDown) never see it destroyed.
+  Script& make_script() { return *scripts_.emplace_back(std::make_unique<Script>()); }
+
   std::shared_ptr<geld::Executor> scripted(Script& script) {
     return std::make_shared<FnExecutor>([&script](const geld::RunContext& ctx) { return script.run(ctx); });
   }
@@ -259,6 +263,7 @@ class Service : public ::testing::Test {
   }
 
   TempDir dir_;
+  std::vector<std::unique_ptr<Script>> scripts_;
   std::unique_ptr<geld::Daemon> daemon_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<gel::v1::GelService::Stub> stub_;
@@ -318,7 +323,7 @@ TEST_F(Service, SubmitWatchSucceedsWithRowsStreamedAndStored) {
 }
 
 TEST_F(Service, EveryRowIsStoredAsReached) {
-  Script script;
+  Script& script = make_script();
   script.rows = 5;
   script.open_rows = 2;
   start({}, 1, scripted(script));
@@ -331,7 +336,7 @@ TEST_F(Service, EveryRowIsStoredAsReached) {
 }
 
 TEST_F(Service, LateWatcherGetsSnapshotThenLiveUpdates) {
-  Script script;
+  Script& script = make_script();
   script.rows = 4;
   script.open_rows = 2;
   start({}, 1, scripted(script));
@@ -368,7 +373,7 @@ TEST_F(Service, LateWatcherGetsSnapshotThenLiveUpdates) {
 }
 
 TEST_F(Service, TenConcurrentWatchersAllGetTheFullStream) {
-  Script script;
+  Script& script = make_script();
   script.rows = 12;
   script.open_rows = 0;
   start({}, 1, scripted(script));
@@ -402,7 +407,7 @@ TEST_F(Service, TenConcurrentWatchersAllGetTheFullStream) {
 }
 
 TEST_F(Service, TwoJobsRunConcurrently) {
-  Script script;
+  Script& script = make_script();
   script.rows = 3;
   script.open_rows = 1;
   start({}, 2, scripted(script));
@@ -422,7 +427,7 @@ TEST_F(Service, TwoJobsRunConcurrently) {
 }
 
 TEST_F(Service, CancelRunningQueuedAndFinished) {
-  Script script;
+  Script& script = make_script();
   script.rows = 3;
   script.open_rows = 1;
   start({}, 1, scripted(script));
@@ -541,7 +546,7 @@ TEST_F(Service, BadInputIsInvalidArgumentNamingTheField) {
 }
 
 TEST_F(Service, QueueFullIsResourceExhausted) {
-  Script script;
+  Script& script = make_script();
   script.rows = 2;
   script.open_rows = 1;
   geld::Limits limits;
@@ -664,7 +669,7 @@ TEST_F(Service, RemoteModeRequiresTheToken) {
 }
 
 TEST_F(Service, ShutdownRefusesWorkWithUnavailableAndKeepsRunningJobsForTheNextStart) {
-  Script script;
+  Script& script = make_script();
   script.rows = 3;
   script.open_rows = 1;
   script.linger_on_stop = 1500ms;  // a slow checkpoint: the server is still up meanwhile
@@ -740,7 +745,7 @@ TEST_F(Service, JobStoppedByShutdownResumesOnRestartWithTheSameCurve) {
 }
 
 TEST_F(Service, ListJobsFiltersAndPages) {
-  Script script;
+  Script& script = make_script();
   script.rows = 1;
   start({}, 2, scripted(script));
   std::vector<std::string> ids;
@@ -792,7 +797,7 @@ TEST_F(Service, ListJobsFiltersAndPages) {
 }
 
 TEST_F(Service, EnsembleCurveHasMembersAndMeanStdPerPhiK) {
-  Script script;
+  Script& script = make_script();
   script.rows = 3;
   start({}, 1, scripted(script));
   const std::string id = submit_ok(tiny_scene_json(), {1, 2, 6});
@@ -833,7 +838,7 @@ TEST_F(Service, RealEnsembleRunsEachSeed) {
 }
 
 TEST_F(Service, QueryCurvesByBondLabelsAndParameters) {
-  Script script;
+  Script& script = make_script();
   script.rows = 2;
   start({}, 1, scripted(script));
   const std::string a = submit_ok(tiny_scene_json(), {}, "a", {{"study", "s1"}});
