@@ -616,6 +616,10 @@ void JobManager::run_job(const std::shared_ptr<Live>& live) {
         set_state(live, gel::v1::JOB_STATE_SUCCEEDED, "");
         return;
       }
+      // The next member at once: a shutdown now resumes there, not in the finished member.
+      store_->set_member(id, member + 1);
+      std::lock_guard lock(live->mutex);
+      live->job.set_member(member + 1);
     }
     if (live->cancel_requested) {
       set_state(live, gel::v1::JOB_STATE_CANCELLED, "cancelled while running");
