@@ -230,15 +230,21 @@ Store::Store(const std::string& path) {
     db_ = nullptr;
     throw StoreError("cannot open " + path + ": " + msg);
   }
-  sqlite3_busy_timeout(db_, 10000);
-  exec("PRAGMA journal_mode=WAL");
-  exec("PRAGMA synchronous=FULL");
-  exec("PRAGMA foreign_keys=ON");
-  migrate();
+  try {
+    sqlite3_busy_timeout(db_, 10000);
+    exec("PRAGMA journal_mode=WAL");
+    exec("PRAGMA synchronous=FULL");
+    exec("PRAGMA foreign_keys=ON");
+    migrate();
+  } catch (...) {
+    sqlite3_close_v2(db_);  // no destructor runs for a constructor that throws
+    db_ = nullptr;
+    throw;
+  }
 }
 
 Store::~Store() {
-  if (db_) sqlite3_close(db_);
+  if (db_) sqlite3_close_v2(db_);
 }
 
 void Store::exec(const char* sql) {
