@@ -44,7 +44,7 @@ struct CompressArgs {
   bool no_snapshots = false;
   // Protocol and integration overrides (0 / unset: preset or default).
   double phi_max = 0, w0 = 0, v_wall = 0, v_wall_v0 = 0, a = 0, b = 0, max_wait_time = 0, stress_floor = 0;
-  double dt = 0, dt_fraction = 0, checkpoint_seconds = 0;
+  double dt = 0, dt_fraction = 0, checkpoint_seconds = 0, adaptive_wall = 0, adaptive_drag_fraction = 0;
   std::optional<double> eta_factor;
   int steps = 0, profile_slices = 0;
   std::int64_t m_exam = 0;
@@ -71,6 +71,8 @@ gel::v1::Scene build_scene(const CompressArgs& args) {
   if (args.max_wait_time != 0) c->set_max_wait_time(args.max_wait_time);
   if (args.stress_floor != 0) c->set_stress_floor(args.stress_floor);
   if (args.shortcut) c->set_approach_shortcut(*args.shortcut);
+  if (args.adaptive_wall != 0) c->set_adaptive_wall_max_factor(args.adaptive_wall);
+  if (args.adaptive_drag_fraction != 0) c->set_adaptive_wall_drag_fraction(args.adaptive_drag_fraction);
   if (args.profile_slices != 0) c->set_profile_slices(args.profile_slices);
   if (args.checkpoint_seconds != 0) c->set_checkpoint_seconds(args.checkpoint_seconds);
   if (args.dt != 0) scene.mutable_integration()->set_dt(args.dt);
@@ -228,6 +230,10 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--max-wait-time", args->max_wait_time, "longest wait for equilibrium per target [t0]");
   sub.add_option("--stress-floor", args->stress_floor, "P below which a step is stress-free [F0/a^2]");
   sub.add_option("--shortcut", args->shortcut, "approach shortcut until the network spans (true/false)");
+  sub.add_option("--adaptive-wall", args->adaptive_wall,
+                 "adaptive wall: let the walls run up to this multiple of v_wall while quasi-static (1 = off)");
+  sub.add_option("--adaptive-drag-fraction", args->adaptive_drag_fraction,
+                 "adaptive wall: share of the wall work that drag may take before the walls slow (default 0.05)");
   sub.add_option("--profile-slices", args->profile_slices, "slices of the phi(y) profile");
   sub.add_option("--checkpoint-seconds", args->checkpoint_seconds, "wall-clock seconds between checkpoints");
   sub.add_option("--eta-factor", args->eta_factor, "viscosity in units of eta_cd (default 0.1)");

@@ -18,6 +18,8 @@ struct CompressionSettings {
   double stress_floor = 0;        // [P0]
   double rest_speed = 0;          // [a/t0]
   bool approach_shortcut = false;
+  double adaptive_wall_max_factor = 1;    // 1 = the published constant wall speed
+  double adaptive_wall_drag_fraction = 0;
   int profile_slices = 0;
   double checkpoint_seconds = 0;
 };

@@ -1,6 +1,7 @@
 // Compression scenes: the presets (quick, paper-bond1, paper-bond2), the fidelity presets
 // (fast, default, paper), resolution of every unset field to its default, validation, JSON and
 // the phi_k schedule. The protocol itself is in compression_protocol.cpp.
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -57,6 +58,7 @@ constexpr double kDefaultStressFloor = 1e-6;       // [P0]
 constexpr double kDefaultRestSpeedFactor = 1e-2;   // rest speed / v_wall
 constexpr int kDefaultProfileSlices = 20;
 constexpr double kDefaultCheckpointSeconds = 300;
+constexpr double kDefaultAdaptiveDragFraction = 0.05;
 
 void require_fraction(const std::string& field, double value) {
   require_positive(field, value);
@@ -169,6 +171,16 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   if (c->stress_floor() == 0.0) c->set_stress_floor(kDefaultStressFloor);
   require_positive("compression.stress_floor", c->stress_floor());
   if (!c->has_approach_shortcut()) c->set_approach_shortcut(fidelity.approach_shortcut);
+  require_finite("compression.adaptive_wall_max_factor", c->adaptive_wall_max_factor());
+  if (c->adaptive_wall_max_factor() < 0.0)
+    throw InvalidArgument("compression.adaptive_wall_max_factor", "must be 0 or 1 (off) or above 1");
+  if (c->adaptive_wall_max_factor() > 1.0) {
+    if (c->v_wall() * c->adaptive_wall_max_factor() * params.dt > 0.05 * params.skin)
+      throw InvalidArgument("compression.adaptive_wall_max_factor",
+                            "lets a wall move more than 5% of the skin per step; lower it");
+    if (c->adaptive_wall_drag_fraction() == 0.0) c->set_adaptive_wall_drag_fraction(kDefaultAdaptiveDragFraction);
+    require_positive("compression.adaptive_wall_drag_fraction", c->adaptive_wall_drag_fraction());
+  }
   if (c->profile_slices() == 0) c->set_profile_slices(kDefaultProfileSlices);
   if (c->profile_slices() < 1 || c->profile_slices() > 100000)
     throw InvalidArgument("compression.profile_slices", "must be between 1 and 100000");
@@ -228,6 +240,8 @@ CompressionSettings compression_settings(const gel::v1::Compression& c) {
   s.stress_floor = c.stress_floor();
   s.rest_speed = c.rest_speed();
   s.approach_shortcut = c.approach_shortcut();
+  s.adaptive_wall_max_factor = std::max(1.0, c.adaptive_wall_max_factor());
+  s.adaptive_wall_drag_fraction = c.adaptive_wall_drag_fraction();
   s.profile_slices = c.profile_slices();
   s.checkpoint_seconds = c.checkpoint_seconds();
   return s;

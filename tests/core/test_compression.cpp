@@ -179,6 +179,11 @@ TEST(CompressionScene, InvalidFieldsAreRejectedByName) {
   expect_invalid("compression.steps", [&] { resolve_compression_scene(with([](auto& c) { c.set_steps(-3); })); });
   expect_invalid("compression.w0", [&] { resolve_compression_scene(with([](auto& c) { c.set_w0(0.5); })); });
   expect_invalid("compression.max_wait_time", [&] { resolve_compression_scene(with([](auto& c) { c.set_max_wait_time(-1); })); });
+  expect_invalid("compression.adaptive_wall_max_factor", [&] { resolve_compression_scene(with([](auto& c) { c.set_adaptive_wall_max_factor(-2); })); });
+  expect_invalid("compression.adaptive_wall_max_factor", [&] { resolve_compression_scene(with([](auto& c) { c.set_adaptive_wall_max_factor(1e6); })); });
+  expect_invalid("compression.adaptive_wall_drag_fraction", [&] {
+    resolve_compression_scene(with([](auto& c) { c.set_adaptive_wall_max_factor(3); c.set_adaptive_wall_drag_fraction(-1); }));
+  });
   expect_invalid("compression.profile_slices", [&] { resolve_compression_scene(with([](auto& c) { c.set_profile_slices(-1); })); });
   expect_invalid("generator.n_floc", [] {
     gel::v1::Scene scene = tiny_scene();
@@ -273,8 +278,7 @@ TEST(Compression, QuickPresetRunsToTheEnd) {
 
 // A run stopped twice (once while compressing, once while waiting) and resumed from its
 // checkpoints gives the same curve and final configuration as an uninterrupted run.
-TEST(Compression, ResumeIsBitIdentical) {
-  const gel::v1::Scene scene = tiny_scene();
+void expect_resume_bit_identical(const gel::v1::Scene& scene) {
   const std::string reference_dir = temp_dir("reference"), resumed_dir = temp_dir("resumed");
   RunOptions reference_options;
   reference_options.out_dir = reference_dir;
@@ -317,6 +321,46 @@ TEST(Compression, ResumeIsBitIdentical) {
   EXPECT_TRUE(resume_compression(options).finished);
   std::filesystem::remove_all(reference_dir);
   std::filesystem::remove_all(resumed_dir);
+}
+
+TEST(Compression, ResumeIsBitIdentical) { expect_resume_bit_identical(tiny_scene()); }
+
+// The adaptive wall keeps controller state (speed factor, ledger baselines) in the checkpoint.
+TEST(Compression, AdaptiveWallResumeIsBitIdentical) {
+  gel::v1::Scene scene = tiny_scene();
+  scene.mutable_compression()->set_adaptive_wall_max_factor(4);
+  scene.mutable_compression()->set_adaptive_wall_drag_fraction(0.5);
+  expect_resume_bit_identical(scene);
+}
+
+// With a drag share that is never exceeded the walls run at the full factor, so the moves take
+// about 1/factor of the steps; with one that is always exceeded they never leave v_wall while
+// the network is loaded. Both end at the same targets.
+TEST(Compression, AdaptiveWallFollowsTheDragShare) {
+  auto moving_steps = [](double factor, double drag_fraction) {
+    gel::v1::Scene scene = tiny_scene();
+    gel::v1::Compression* c = scene.mutable_compression();
+    c->set_steps(2);
+    c->set_a_tolerance(1e3);  // equilibrium at the first test: the steps are the move plus m_exam
+    c->set_b_tolerance(1e3);
+    c->set_approach_shortcut(false);
+    if (factor > 1) {
+      c->set_adaptive_wall_max_factor(factor);
+      c->set_adaptive_wall_drag_fraction(drag_fraction);
+    }
+    const CompressionResult result = run_compression(scene, RunOptions{});
+    EXPECT_TRUE(result.finished);
+    std::int64_t steps = 0;
+    for (int k = 1; k < result.curve.rows_size(); ++k) {
+      EXPECT_NEAR(result.curve.rows(k).phi(), result.curve.rows(k).target_phi(), 1e-9);
+      steps += result.curve.rows(k).steps() - result.curve.rows(k - 1).steps() - scene.compression().m_exam();
+    }
+    return steps;
+  };
+  const std::int64_t constant = moving_steps(1, 0);
+  const std::int64_t always_fast = moving_steps(8, 1e12);
+  EXPECT_LT(always_fast, constant / 4) << "constant " << constant << ", always fast " << always_fast;
+  EXPECT_GT(always_fast, constant / 8 - 2);
 }
 
 // With B unreachable, no target equilibrates: every row is recorded, flagged, after the wait.
