@@ -15,7 +15,6 @@ Only the Python standard library and gnuplot (Debian gnuplot-nox) are used.
 """
 import argparse
 import concurrent.futures
-import copy
 import json
 import math
 import os
@@ -199,10 +198,6 @@ def fit_power_law(phis, ps):
     sxx = sum((x - mx) ** 2 for x in xs)
     slope = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx
     return slope, my - slope * mx
-
-
-def fit_exponent(phis, ps):
-    return fit_power_law(phis, ps)[0]
 
 
 def compare(curve, reference, phi_min):

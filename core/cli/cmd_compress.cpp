@@ -233,7 +233,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--adaptive-wall", args->adaptive_wall,
                  "adaptive wall: let the walls run up to this multiple of v_wall while quasi-static (1 = off)");
   sub.add_option("--adaptive-drag-fraction", args->adaptive_drag_fraction,
-                 "adaptive wall: share of the wall work that drag may take before the walls slow (default 0.05)");
+                 "adaptive wall: share of the wall work that drag may take before the walls slow (default 0.05)\n"
+                 "(with neither option, the fidelity preset decides: on, x10 and 0.5, in 'default')");
   sub.add_option("--profile-slices", args->profile_slices, "slices of the phi(y) profile");
   sub.add_option("--checkpoint-seconds", args->checkpoint_seconds, "wall-clock seconds between checkpoints");
   sub.add_option("--eta-factor", args->eta_factor, "viscosity in units of eta_cd (default 0.1)");

@@ -161,8 +161,11 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
     c->set_v_wall(c->v_wall_v0() * v0);
   }
   // A wall must not cross the neighbour-list skin in a few steps or outrun the speed guard.
-  if (c->v_wall() * params.dt > 0.05 * params.skin)
-    throw InvalidArgument("compression.v_wall", "moves a wall more than 5% of the skin per step; lower it");
+  auto require_wall_step_within_skin = [&](const char* field, double speed) {
+    if (speed * params.dt > 0.05 * params.skin)
+      throw InvalidArgument(field, "moves a wall more than 5% of the skin per step; lower it");
+  };
+  require_wall_step_within_skin("compression.v_wall", c->v_wall());
 
   if (c->m_exam() == 0) c->set_m_exam(fidelity.m_exam);
   if (c->m_exam() < 1) throw InvalidArgument("compression.m_exam", "must be at least 1 step");
@@ -184,9 +187,7 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   if (c->adaptive_wall_max_factor() < 0.0)
     throw InvalidArgument("compression.adaptive_wall_max_factor", "must be 0 or 1 (off) or above 1");
   if (c->adaptive_wall_max_factor() > 1.0) {
-    if (c->v_wall() * c->adaptive_wall_max_factor() * params.dt > 0.05 * params.skin)
-      throw InvalidArgument("compression.adaptive_wall_max_factor",
-                            "lets a wall move more than 5% of the skin per step; lower it");
+    require_wall_step_within_skin("compression.adaptive_wall_max_factor", c->v_wall() * c->adaptive_wall_max_factor());
     if (c->adaptive_wall_drag_fraction() == 0.0) c->set_adaptive_wall_drag_fraction(kDefaultAdaptiveDragFraction);
     require_positive("compression.adaptive_wall_drag_fraction", c->adaptive_wall_drag_fraction());
   }

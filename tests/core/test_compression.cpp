@@ -348,8 +348,8 @@ TEST(Compression, AdaptiveWallResumeIsBitIdentical) {
 }
 
 // With a drag share that is never exceeded the walls run at the full factor, so the moves take
-// about 1/factor of the steps; with one that is always exceeded they never leave v_wall while
-// the network is loaded. Both end at the same targets.
+// between 1/8 and 1/4 of the constant-speed steps (the factor ramps up by 1.1 per chunk); both
+// end exactly at the targets.
 TEST(Compression, AdaptiveWallFollowsTheDragShare) {
   auto moving_steps = [](double factor, double drag_fraction) {
     gel::v1::Scene scene = tiny_scene();
