@@ -49,6 +49,9 @@ struct CompressArgs {
   int steps = 0, profile_slices = 0;
   std::int64_t m_exam = 0;
   std::optional<bool> shortcut;
+  std::string exam_ruptures, approach;
+  double strain_step = 0, relax_tolerance = 0, relax_floor = 0, relax_dt_max = 0;
+  std::int64_t relax_max_iterations = 0;
 };
 
 gel::v1::Scene build_scene(const CompressArgs& args) {
@@ -75,6 +78,13 @@ gel::v1::Scene build_scene(const CompressArgs& args) {
   if (args.adaptive_drag_fraction != 0) c->set_adaptive_wall_drag_fraction(args.adaptive_drag_fraction);
   if (args.profile_slices != 0) c->set_profile_slices(args.profile_slices);
   if (args.checkpoint_seconds != 0) c->set_checkpoint_seconds(args.checkpoint_seconds);
+  if (!args.exam_ruptures.empty()) c->set_exam_ruptures(args.exam_ruptures);
+  if (args.strain_step != 0) c->set_quasistatic_strain_step(args.strain_step);
+  if (!args.approach.empty()) c->set_quasistatic_approach(args.approach);
+  if (args.relax_tolerance != 0) c->set_relax_force_tolerance(args.relax_tolerance);
+  if (args.relax_floor != 0) c->set_relax_force_floor(args.relax_floor);
+  if (args.relax_dt_max != 0) c->set_relax_dt_max_factor(args.relax_dt_max);
+  if (args.relax_max_iterations != 0) c->set_relax_max_iterations(args.relax_max_iterations);
   if (args.dt != 0) scene.mutable_integration()->set_dt(args.dt);
   if (args.dt_fraction != 0) scene.mutable_integration()->set_dt_fraction(args.dt_fraction);
   if (args.eta_factor) scene.mutable_integration()->set_eta_factor(*args.eta_factor);
@@ -105,12 +115,18 @@ nlohmann::json events_json(const gel::v1::Events& e) {
 }
 
 nlohmann::json progress_json(const gel::v1::Progress& p) {
-  return {{"type", "progress"},     {"phase", p.phase()},
-          {"k", p.k()},             {"k_total", p.k_total()},
-          {"phi", p.phi()},         {"target_phi", p.target_phi()},
-          {"P", p.p()},             {"events", events_json(p.events())},
-          {"steps", p.steps()},     {"elapsed_seconds", p.elapsed_seconds()},
-          {"remaining_seconds", p.remaining_seconds()}};
+  nlohmann::json line = {{"type", "progress"},     {"phase", p.phase()},
+                         {"k", p.k()},             {"k_total", p.k_total()},
+                         {"phi", p.phi()},         {"target_phi", p.target_phi()},
+                         {"P", p.p()},             {"events", events_json(p.events())},
+                         {"steps", p.steps()},     {"elapsed_seconds", p.elapsed_seconds()},
+                         {"remaining_seconds", p.remaining_seconds()}};
+  if (p.relax_iterations() > 0 || p.residual_force() > 0) {
+    line["residual_force"] = p.residual_force();
+    line["residual_target"] = p.residual_target();
+    line["relax_iterations"] = p.relax_iterations();
+  }
+  return line;
 }
 
 std::string duration_text(double seconds) {
@@ -122,7 +138,18 @@ std::string duration_text(double seconds) {
 }
 
 std::string progress_text(const gel::v1::Progress& p) {
-  char buffer[256];
+  char buffer[320];
+  if (p.phase() == "relaxing" || (p.phase() == "compressing" && p.relax_iterations() > 0)) {
+    std::snprintf(buffer, sizeof buffer,
+                  "%-11s k %d/%d  phi %.4f -> %.4f  P %.3e  residual %.2e (target %.2e) after %lld it  breaks %lld  "
+                  "resets %lld  elapsed %s  eta %s",
+                  p.phase().c_str(), p.k(), p.k_total(), p.phi(), p.target_phi(), p.p(), p.residual_force(),
+                  p.residual_target(), static_cast<long long>(p.relax_iterations()),
+                  static_cast<long long>(p.events().normal()),
+                  static_cast<long long>(p.events().sliding() + p.events().rolling()),
+                  duration_text(p.elapsed_seconds()).c_str(), duration_text(p.remaining_seconds()).c_str());
+    return buffer;
+  }
   std::snprintf(buffer, sizeof buffer, "%-11s k %d/%d  phi %.4f -> %.4f  P %.3e  breaks %lld  resets %lld  elapsed %s  eta %s",
                 p.phase().c_str(), p.k(), p.k_total(), p.phi(), p.target_phi(), p.p(),
                 static_cast<long long>(p.events().normal()),
@@ -168,7 +195,9 @@ int run_compress(const CompressArgs& args) {
     progress_file.write(line);
     if (terminal) std::cerr << '\r' << "\033[K";
     std::cerr << "equilibrium k " << row.k() << ": phi " << row.phi() << "  P " << row.p()
-              << (row.equilibrated() ? "" : "  (NOT equilibrated: wait limit reached)") << '\n';
+              << (row.relax_iterations() > 0 ? "  residual " + std::to_string(row.residual_force()) + " F0" : "")
+              << (row.spans() ? "" : "  (network does not span the walls)")
+              << (row.equilibrated() ? "" : "  (NOT equilibrated: wait or iteration limit reached)") << '\n';
   };
 
   gel::CompressionResult result;
@@ -212,7 +241,7 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--config", args->config_file, "start from this configuration instead of generating a gel");
   sub.add_option("--bond", args->bond, "bond preset: bond1, bond2");
   sub.add_option("--seed", args->seed, "generator seed");
-  sub.add_option("--fidelity", args->fidelity, "fast, default or paper (MODEL.md reference values)");
+  sub.add_option("--fidelity", args->fidelity, "fast, default, paper (MODEL.md reference values) or quasistatic (FIRE relaxation)");
   sub.add_option("--out", args->out, "run directory: curve.json/csv, profiles.csv, snapshots/, checkpoint.bin");
   sub.add_option("--resume", args->resume, "continue the run in DIR (default: --out) from its checkpoint")->expected(0, 1);
   sub.add_option("--progress-file", args->progress_file, "append one JSON line per progress message and row");
@@ -235,6 +264,16 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--adaptive-drag-fraction", args->adaptive_drag_fraction,
                  "adaptive wall: share of the wall work that drag may take before the walls slow (default 0.05)\n"
                  "(with neither option, the fidelity preset decides: on, x10 and 0.5, in 'default')");
+  sub.add_option("--exam-ruptures", args->exam_ruptures,
+                 "ruptures the equilibrium test's third criterion counts: all (default) or normal");
+  sub.add_option("--approach", args->approach,
+                 "quasistatic: how the walls reach a target: walls (the dynamics' wall motion, default) or affine");
+  sub.add_option("--strain-step", args->strain_step, "quasistatic, affine: largest d ln(phi) per step (default 0.005)");
+  sub.add_option("--relax-tolerance", args->relax_tolerance,
+                 "quasistatic: residual force and torque/a per particle over the mean bond force (default 1e-4)");
+  sub.add_option("--relax-floor", args->relax_floor, "quasistatic: residual that always counts as relaxed [F0] (default stress floor x a^2)");
+  sub.add_option("--relax-dt-max", args->relax_dt_max, "quasistatic: FIRE's largest step over the dynamics' dt, times FIRE's inertia gain (default 3)");
+  sub.add_option("--relax-max-iterations", args->relax_max_iterations, "quasistatic: FIRE iterations per strain step (default 2e5)");
   sub.add_option("--profile-slices", args->profile_slices, "slices of the phi(y) profile");
   sub.add_option("--checkpoint-seconds", args->checkpoint_seconds, "wall-clock seconds between checkpoints");
   sub.add_option("--eta-factor", args->eta_factor, "viscosity in units of eta_cd (default 0.1)");

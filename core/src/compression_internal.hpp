@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "gel/compression.hpp"
+#include "gel/system.hpp"
 #include "gel/v1/scene.pb.h"
 
 namespace gel {
@@ -22,6 +23,12 @@ struct CompressionSettings {
   double adaptive_wall_drag_fraction = 0;
   int profile_slices = 0;
   double checkpoint_seconds = 0;
+  bool exam_all_ruptures = true;  // the third test counts resets too (MODEL.md)
+  bool quasistatic = false;
+  bool affine_steps = false;      // quasi-static approach: affine strain steps, not wall motion
+  double strain_step = 0;         // max d ln(phi) per affine step
+  RelaxOptions relax;
+  std::int64_t relax_max_iterations = 0;  // per strain step
 };
 
 // From a scene already passed through resolve_compression_scene.

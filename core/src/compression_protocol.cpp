@@ -37,8 +37,17 @@ using Clock = std::chrono::steady_clock;
 constexpr std::int64_t kChunkSteps = 128;
 
 constexpr char kCheckpointFile[] = "checkpoint.bin";
-// Version 2 added the adaptive wall's controller state.
-constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '2'};
+// Version 2 added the adaptive wall's controller state, version 3 the quasi-static method's
+// relaxation state (and the rupture count of the third equilibrium test).
+constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '3'};
+
+// Quasi-static approach: at most this many contact-to-contact jumps per target before the walls
+// move, and the overlap each jump ends with so that the touching pair bonds [a].
+constexpr int kMaxShortcutJumps = 10000;
+constexpr double kContactHair = 1e-9;
+
+// FIRE iterations between two looks at the stop flag, the clock and progress.
+constexpr std::int64_t kRelaxChunk = 512;
 
 // Adaptive wall controller, applied once per moving chunk: speed up gently (about 2.6x per
 // thousand steps) so a sudden load is met before the walls run far ahead, and halve at once
@@ -46,7 +55,7 @@ constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '2'};
 constexpr double kAdaptiveSpeedUp = 1.1;
 constexpr double kAdaptiveSlowDown = 0.5;
 
-enum Phase : std::int32_t { kMoving = 0, kWaiting = 1, kDone = 2 };
+enum Phase : std::int32_t { kMoving = 0, kWaiting = 1, kDone = 2, kRelaxing = 3 };
 
 // Everything besides the engine and the curve that the protocol needs to continue.
 struct CompressionState {
@@ -56,12 +65,13 @@ struct CompressionState {
   std::int64_t next_exam_step = 0;      // engine step of the next equilibrium test
   double wait_start_time = 0;           // simulated time when the walls stopped
   double previous_p = 0;                // P' (P at the previous test, or at the stop)
-  std::int64_t breaks_at_previous = 0;  // normal breaks counted at the previous test
+  std::int64_t breaks_at_previous = 0;  // ruptures the third test counts, at the previous test
   std::uint8_t spanned = 0;             // the network spans: no more approach shortcut
   double wall_seconds_before = 0;       // wall-clock seconds of earlier sessions
   double wall_speed_factor = 1;         // adaptive wall: current v / v_wall
   double drag_at_control = 0;           // adaptive wall: ledger at the previous control
   double wall_work_at_control = 0;
+  RelaxState relax;                     // quasi-static: the relaxation of the current strain step
 };
 
 // --- Binary checkpoint pieces (explicit field by field: no padding bytes on disk) ---------
@@ -121,6 +131,17 @@ std::string encode_state(const CompressionState& s) {
   put(out, s.wall_speed_factor);
   put(out, s.drag_at_control);
   put(out, s.wall_work_at_control);
+  put(out, s.relax.dt);
+  put(out, s.relax.dt_max);
+  put(out, s.relax.alpha);
+  put(out, s.relax.n_positive);
+  put(out, s.relax.n_negative);
+  put(out, s.relax.iterations);
+  put(out, s.relax.residual);
+  put(out, s.relax.force_scale);
+  put(out, s.relax.tolerance_factor);
+  put(out, s.relax.converged);
+  put(out, s.relax.stalled);
   return out;
 }
 
@@ -139,7 +160,18 @@ CompressionState decode_state(const std::string& bytes) {
   s.wall_speed_factor = r.get<double>();
   s.drag_at_control = r.get<double>();
   s.wall_work_at_control = r.get<double>();
-  if (!r.done() || s.phase < kMoving || s.phase > kDone) throw std::runtime_error("checkpoint protocol state is invalid");
+  s.relax.dt = r.get<double>();
+  s.relax.dt_max = r.get<double>();
+  s.relax.alpha = r.get<double>();
+  s.relax.n_positive = r.get<std::int64_t>();
+  s.relax.n_negative = r.get<std::int64_t>();
+  s.relax.iterations = r.get<std::int64_t>();
+  s.relax.residual = r.get<double>();
+  s.relax.force_scale = r.get<double>();
+  s.relax.tolerance_factor = r.get<double>();
+  s.relax.converged = r.get<std::uint8_t>();
+  s.relax.stalled = r.get<std::uint8_t>();
+  if (!r.done() || s.phase < kMoving || s.phase > kRelaxing) throw std::runtime_error("checkpoint protocol state is invalid");
   return s;
 }
 
@@ -217,6 +249,8 @@ bool group_touches_bottom_wall(const System& system, const std::vector<char>& gr
   return false;
 }
 
+bool network_spans(const System& system) { return group_touches_bottom_wall(system, top_wall_group(system)); }
+
 // How far the top group can move down before one of its particles touches a particle outside
 // it or the bottom wall.
 double distance_to_first_contact(const System& system, const std::vector<char>& group) {
@@ -268,7 +302,9 @@ class CompressionRun {
         result.curve = curve_;
         return result;
       }
-      if (state_.phase == kMoving)
+      if (settings_.quasistatic)
+        advance_quasistatic();
+      else if (state_.phase == kMoving)
         advance_moving();
       else
         advance_waiting();
@@ -297,15 +333,24 @@ class CompressionRun {
     double gap = system_.wall_top() - system_.wall_bottom() - target_height;
     if (settings_.approach_shortcut && !state_.spanned && system_.wall_velocity_top() == 0.0) {
       // At the start of a target's compression only (walls at rest).
-      const std::vector<char> group = top_wall_group(system_);
-      if (group_touches_bottom_wall(system_, group)) {
-        state_.spanned = 1;
-      } else {
-        const double jump = std::min(distance_to_first_contact(system_, group), std::max(gap, 0.0));
+      // The quasi-static method repeats the jump from contact to contact (each contact bonds
+      // and the group grows) until the network spans: the v -> 0 limit of pushing clusters
+      // through the liquid, where drag vanishes.
+      const int jumps = settings_.quasistatic ? kMaxShortcutJumps : 1;
+      for (int jump_count = 0; jump_count < jumps && gap > 0.0; ++jump_count) {
+        const std::vector<char> group = top_wall_group(system_);
+        if (group_touches_bottom_wall(system_, group)) {
+          state_.spanned = 1;
+          break;
+        }
+        double jump = std::min(distance_to_first_contact(system_, group), std::max(gap, 0.0));
+        // Into contact by a hair, so that the touching pair bonds (or the particle sticks).
+        if (settings_.quasistatic) jump = std::min(jump + kContactHair, gap);
         if (jump > 0.0) system_.translate_wall_group(kTopWall, -jump);
+        if (settings_.quasistatic) system_.update_contacts();
         gap -= jump;
-        if (gap <= 0.0) return begin_wait();
       }
+      if (gap <= 0.0) return begin_wait();
     }
     if (gap <= 0.0) return begin_wait();
     const double dt = system_.params().dt;
@@ -346,12 +391,54 @@ class CompressionRun {
     return settings_.v_wall * factor;
   }
 
+  // Quasi-static method: the walls reach each target either by the dynamics' wall motion
+  // (default) or in affine strain steps of at most strain_step in ln(phi), each relaxed; at the
+  // target FIRE relaxes the network at fixed walls, and the row is that relaxed state.
+  void advance_quasistatic() {
+    if (state_.phase == kMoving && !settings_.affine_steps) return advance_moving();  // ends in begin_wait()
+    if (state_.phase == kMoving) {
+      const double height = system_.wall_top() - system_.wall_bottom();
+      const double target_height = height_at(target_phi());
+      // A last step shorter than a tenth of a step joins the one before it.
+      double next = height * std::exp(-settings_.strain_step);
+      if (next < target_height * std::exp(0.1 * settings_.strain_step)) next = target_height;
+      const double centre = 0.5 * (system_.wall_top() + system_.wall_bottom());
+      system_.affine_move_walls(centre - 0.5 * next, centre + 0.5 * next);
+      state_.relax = RelaxState{};
+      state_.phase = kRelaxing;
+      return;
+    }
+    const std::int64_t left = settings_.relax_max_iterations - state_.relax.iterations;
+    system_.relax(state_.relax, settings_.relax, std::min(kRelaxChunk, std::max<std::int64_t>(left, 0)));
+    const bool done = state_.relax.converged || state_.relax.stalled ||
+                      state_.relax.iterations >= settings_.relax_max_iterations;
+    if (!done) return;
+    // The last step aimed at the target's height exactly; its wall positions round it.
+    const double height = system_.wall_top() - system_.wall_bottom();
+    if (height <= height_at(target_phi()) * (1 + 1e-12)) {
+      finish_target(state_.relax.converged != 0);
+    } else {
+      state_.phase = kMoving;
+    }
+  }
+
+  std::int64_t counted_ruptures() const {
+    const EventCounts& e = system_.events();
+    return settings_.exam_all_ruptures ? e.normal + e.sliding + e.rolling : e.normal;
+  }
+
   void begin_wait() {
     set_walls(0.0);
+    if (settings_.quasistatic) {
+      // The walls are at the target: relax there instead of waiting.
+      state_.relax = RelaxState{};
+      state_.phase = kRelaxing;
+      return;
+    }
     state_.phase = kWaiting;
     state_.wait_start_time = system_.time();
     state_.previous_p = system_.wall_stress().p;
-    state_.breaks_at_previous = system_.events().normal;
+    state_.breaks_at_previous = counted_ruptures();
     state_.next_exam_step = system_.step_count() + settings_.m_exam;
   }
 
@@ -369,12 +456,13 @@ class CompressionRun {
     sample.p_top = stress.p_top;
     sample.p_bot = stress.p_bottom;
     sample.previous_p = state_.previous_p;
-    sample.bond_broke = system_.events().normal != state_.breaks_at_previous;
+    sample.bond_broke = counted_ruptures() != state_.breaks_at_previous;
     sample.max_speed = system_.max_speed();
+    sample.spans = network_spans(system_);
     if (equilibrium_reached(sample, settings_)) return finish_target(true);
     if (system_.time() - state_.wait_start_time >= settings_.max_wait_time) return finish_target(false);
     state_.previous_p = stress.p;
-    state_.breaks_at_previous = system_.events().normal;
+    state_.breaks_at_previous = counted_ruptures();
     state_.next_exam_step += settings_.m_exam;
   }
 
@@ -420,6 +508,12 @@ class CompressionRun {
     row.set_kinetic_energy(system_.kinetic_energy());
     row.set_bond_creation_energy(system_.energy().created);
     row.set_absorbed_by_walls(system_.energy().absorbed_by_walls);
+    row.set_spans(network_spans(system_));
+    if (settings_.quasistatic && index > 0) {
+      row.set_residual_force(state_.relax.residual);
+      row.set_mean_bond_force(state_.relax.force_scale);
+      row.set_relax_iterations(state_.relax.iterations);
+    }
     for (const double value : {row.p(), row.stored_energy(), row.dissipated_energy(), row.kinetic_energy(), row.phi()})
       require_finite_state("a recorded observable", value);
     if (!options_.out_dir.empty() && options_.write_snapshots) {
@@ -475,7 +569,22 @@ class CompressionRun {
     p.set_remaining_seconds(fraction > 0.01 ? elapsed * (1.0 - fraction) / fraction : -1.0);
     p.set_steps(system_.step_count());
     p.set_phase(phase);
+    if (settings_.quasistatic) {
+      p.set_residual_force(state_.relax.residual);
+      p.set_residual_target(std::max(settings_.relax.force_tolerance * state_.relax.tolerance_factor * state_.relax.force_scale,
+                                     settings_.relax.force_floor));
+      p.set_relax_iterations(state_.relax.iterations);
+    }
     return p;
+  }
+
+  const char* phase_name() const {
+    switch (state_.phase) {
+      case kMoving: return "compressing";
+      case kWaiting: return "waiting";
+      case kRelaxing: return "relaxing";
+      default: return "done";
+    }
   }
 
   void between_chunks() {
@@ -485,7 +594,7 @@ class CompressionRun {
     if (options_.on_progress &&
         std::chrono::duration<double>(now - last_progress_).count() >= options_.progress_interval_seconds) {
       last_progress_ = now;
-      options_.on_progress(progress(state_.phase == kMoving ? "compressing" : state_.phase == kWaiting ? "waiting" : "done"));
+      options_.on_progress(progress(phase_name()));
     }
     if (!options_.out_dir.empty() &&
         std::chrono::duration<double>(now - last_checkpoint_).count() >= settings_.checkpoint_seconds)
@@ -505,6 +614,9 @@ class CompressionRun {
 
 bool equilibrium_reached(const EquilibriumSample& sample, const CompressionSettings& settings) {
   if (sample.bond_broke) return false;
+  // A network that does not reach both walls carries no load: P is drag on the wall clusters,
+  // so only rest means equilibrium.
+  if (!sample.spans) return sample.max_speed < settings.rest_speed;
   const double p = 0.5 * (sample.p_top + sample.p_bot);
   const double scale = std::abs(p);
   if (scale < settings.stress_floor && std::abs(sample.previous_p) < settings.stress_floor)

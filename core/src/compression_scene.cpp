@@ -49,13 +49,24 @@ struct Fidelity {
   bool approach_shortcut;     // jump the stress-free approach
   double adaptive_wall_max_factor;     // 1 = constant wall speed
   double adaptive_wall_drag_fraction;  // 0 = the default share
+  bool quasistatic = false;   // affine strain steps + FIRE relaxation instead of wall motion
 };
 Fidelity fidelity_preset(const std::string& name) {
   if (name == "paper") return {1.0, kReferenceMExam, 1.0, false, 1.0, 0.0};
   if (name == "default") return {1.0, 3000, 1.0, true, 10.0, 0.5};
   if (name == "fast") return {4.0, 2000, 3.0, true, 1.0, 0.0};
-  throw InvalidArgument("compression.fidelity", "unknown fidelity '" + name + "' (known: fast, default, paper)");
+  // The walls move as in "default" (paper speed, adaptive up to x10 while drag takes little of
+  // the work, shortcut before the network spans); FIRE replaces the wait at each target.
+  if (name == "quasistatic") return {1.0, kReferenceMExam, 1.0, true, 10.0, 0.5, true};
+  throw InvalidArgument("compression.fidelity",
+                        "unknown fidelity '" + name + "' (known: fast, default, paper, quasistatic)");
 }
+
+// Quasi-static method defaults (docs/quasistatic.md).
+constexpr double kDefaultStrainStep = 0.005;         // d ln(phi) per affine step
+constexpr double kDefaultRelaxTolerance = 1e-4;      // residual / mean bond force
+constexpr std::int64_t kDefaultRelaxIterations = 200000;
+constexpr double kDefaultRelaxDtMax = 3;             // FIRE dt_max / (dt x FIRE inertia gain)
 
 // Default waiting limit per target, in exam intervals.
 constexpr double kDefaultMaxWaitExams = 100;
@@ -198,6 +209,31 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   require_positive("compression.checkpoint_seconds", c->checkpoint_seconds());
   if (c->rest_speed() == 0.0) c->set_rest_speed(kDefaultRestSpeedFactor * c->v_wall());
   require_positive("compression.rest_speed", c->rest_speed());
+  if (c->exam_ruptures().empty()) c->set_exam_ruptures("all");
+  if (c->exam_ruptures() != "all" && c->exam_ruptures() != "normal")
+    throw InvalidArgument("compression.exam_ruptures", "must be 'all' or 'normal'");
+
+  if (fidelity.quasistatic) c->set_quasistatic(true);
+  if (c->quasistatic_approach().empty()) c->set_quasistatic_approach("walls");
+  if (c->quasistatic_approach() != "walls" && c->quasistatic_approach() != "affine")
+    throw InvalidArgument("compression.quasistatic_approach", "must be 'walls' or 'affine'");
+  if (c->quasistatic_strain_step() == 0.0) c->set_quasistatic_strain_step(kDefaultStrainStep);
+  require_positive("compression.quasistatic_strain_step", c->quasistatic_strain_step());
+  if (c->quasistatic_strain_step() > 0.1)
+    throw InvalidArgument("compression.quasistatic_strain_step", "must be at most 0.1 (a 10% strain per step)");
+  if (c->relax_force_tolerance() == 0.0) c->set_relax_force_tolerance(kDefaultRelaxTolerance);
+  require_positive("compression.relax_force_tolerance", c->relax_force_tolerance());
+  // A residual r on each of the ~L_y/2a particles stacked between the walls moves P by at most
+  // r L_y / (2a * 2a L_x) ~ r / a^2 for the paper's box: r = stress_floor a^2 keeps that below
+  // the stress floor (docs/quasistatic.md).
+  if (c->relax_force_floor() == 0.0) c->set_relax_force_floor(c->stress_floor() * kRadius * kRadius);
+  require_positive("compression.relax_force_floor", c->relax_force_floor());
+  if (c->relax_max_iterations() == 0) c->set_relax_max_iterations(kDefaultRelaxIterations);
+  if (c->relax_max_iterations() < 1) throw InvalidArgument("compression.relax_max_iterations", "must be at least 1");
+  if (c->relax_dt_max_factor() == 0.0) c->set_relax_dt_max_factor(kDefaultRelaxDtMax);
+  require_positive("compression.relax_dt_max_factor", c->relax_dt_max_factor());
+  if (c->relax_dt_max_factor() > 20)
+    throw InvalidArgument("compression.relax_dt_max_factor", "must be at most 20 (beyond, FIRE stalls at the stability limit)");
   return resolved;
 }
 
@@ -254,6 +290,16 @@ CompressionSettings compression_settings(const gel::v1::Compression& c) {
   s.adaptive_wall_drag_fraction = c.adaptive_wall_drag_fraction();
   s.profile_slices = c.profile_slices();
   s.checkpoint_seconds = c.checkpoint_seconds();
+  s.exam_all_ruptures = c.exam_ruptures() != "normal";
+  s.quasistatic = c.quasistatic();
+  s.affine_steps = c.quasistatic_approach() == "affine";
+  s.strain_step = c.quasistatic_strain_step();
+  s.relax.force_tolerance = c.relax_force_tolerance();
+  s.relax.force_floor = c.relax_force_floor();
+  s.relax.a_tolerance = c.a_tolerance();
+  s.relax.stress_floor = c.stress_floor();
+  s.relax.dt_max_factor = c.relax_dt_max_factor();
+  s.relax_max_iterations = c.relax_max_iterations();
   return s;
 }
 

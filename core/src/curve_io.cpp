@@ -69,6 +69,10 @@ nlohmann::json curve_row_to_json(const gel::v1::CurveRow& row) {
   j["absorbed_by_walls"] = row.absorbed_by_walls();
   j["phi_profile"] = std::vector<double>(row.phi_profile().begin(), row.phi_profile().end());
   j["snapshot"] = row.snapshot();
+  j["spans"] = row.spans();
+  j["residual_force"] = row.residual_force();
+  j["mean_bond_force"] = row.mean_bond_force();
+  j["relax_iterations"] = row.relax_iterations();
   return j;
 }
 
@@ -101,6 +105,11 @@ gel::v1::CurveRow curve_row_from_json(const nlohmann::json& j) {
   row.set_absorbed_by_walls(optional_field<double>(j, "absorbed_by_walls", 0.0));
   for (const double phi : optional_field<std::vector<double>>(j, "phi_profile", {})) row.add_phi_profile(phi);
   row.set_snapshot(optional_field<std::string>(j, "snapshot", ""));
+  // Curves written before the span was recorded only ever reported loaded rows as such.
+  row.set_spans(optional_field<bool>(j, "spans", true));
+  row.set_residual_force(optional_field<double>(j, "residual_force", 0.0));
+  row.set_mean_bond_force(optional_field<double>(j, "mean_bond_force", 0.0));
+  row.set_relax_iterations(optional_field<std::int64_t>(j, "relax_iterations", 0));
   return row;
 }
 
@@ -131,7 +140,8 @@ std::string curve_to_csv(const gel::v1::Curve& curve) {
          "stored_energy [F0 a],dissipated_energy [F0 a],ruptures_normal [count],ruptures_sliding [count],"
          "ruptures_rolling [count],bonds_created [count],equilibrated [0/1],steps [count],sim_time [t0],"
          "wall_seconds [s],drag_energy [F0 a],wall_work [F0 a],kinetic_energy [F0 a],"
-         "bond_creation_energy [F0 a],absorbed_by_walls [F0 a],snapshot\n";
+         "bond_creation_energy [F0 a],absorbed_by_walls [F0 a],snapshot,spans [0/1],residual_force [F0],"
+         "mean_bond_force [F0],relax_iterations [count]\n";
   for (const gel::v1::CurveRow& r : curve.rows()) {
     out << r.k() << ',' << exact(r.phi()) << ',' << exact(r.target_phi()) << ',' << exact(r.p()) << ','
         << exact(r.p_top()) << ',' << exact(r.p_bot()) << ',' << exact(r.contact_number()) << ','
@@ -140,7 +150,8 @@ std::string curve_to_csv(const gel::v1::Curve& curve) {
         << (r.equilibrated() ? 1 : 0) << ',' << r.steps() << ',' << exact(r.sim_time()) << ','
         << exact(r.wall_seconds()) << ',' << exact(r.drag_energy()) << ',' << exact(r.wall_work()) << ','
         << exact(r.kinetic_energy()) << ',' << exact(r.bond_creation_energy()) << ','
-        << exact(r.absorbed_by_walls()) << ',' << r.snapshot() << '\n';
+        << exact(r.absorbed_by_walls()) << ',' << r.snapshot() << ',' << (r.spans() ? 1 : 0) << ','
+        << exact(r.residual_force()) << ',' << exact(r.mean_bond_force()) << ',' << r.relax_iterations() << '\n';
   }
   return out.str();
 }

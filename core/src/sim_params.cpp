@@ -18,12 +18,14 @@ double SimParams::drag_rotation() const {
   return drag_translation() * (4.0 / 3.0) * kRadius * kRadius;
 }
 
-double shortest_period(const BondLaw& bond) {
+double shortest_period(const BondLaw& bond) { return shortest_period(bond, kInertia); }
+
+double shortest_period(const BondLaw& bond, double inertia) {
   // Modes of one bond between two free particles: stretching (reduced mass m/2) and the
   // rotational modes, where a particle turning alone loads both the sliding and the rolling
   // spring: I d^2theta/dt^2 = -(k_S a^2 + k_R a^2) theta per bond, times 2 for the pair.
   const double translational = 2.0 * std::max(bond.k_normal, bond.k_sliding) / kMass;
-  const double rotational = 2.0 * (bond.k_sliding * kRadius * kRadius + bond.k_rolling) / kInertia;
+  const double rotational = 2.0 * (bond.k_sliding * kRadius * kRadius + bond.k_rolling) / inertia;
   const double omega_max = std::sqrt(std::max(translational, rotational));
   return 2.0 * kPi / omega_max;
 }

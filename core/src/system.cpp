@@ -76,6 +76,15 @@ BondEnergy bond_energy(const BondGeometry& g, const BondLaw& law, unsigned effec
   return energy;
 }
 
+BondForces evaluate_bond(const BondGeometry& g, const BondLaw& law, unsigned effects) {
+  constexpr unsigned kTerms = kNormalSpring | kOverlapRepulsion | kSliding | kRolling;
+  static constexpr auto table = []<std::size_t... kMasks>(std::index_sequence<kMasks...>) {
+    return std::array<BondForces (*)(const BondGeometry&, const BondLaw&), sizeof...(kMasks)>{
+        &BondEvaluator<kMasks>::evaluate...};
+  }(std::make_index_sequence<kTerms + 1>{});
+  return table[effects & kTerms](g, law);
+}
+
 // ---------------------------------------------------------------------------------------
 // Construction
 
@@ -328,14 +337,18 @@ void System::detect_contacts() {
   }
 }
 
-double System::bond_energy(const Bond& bond) const {
+BondGeometry System::geometry(const Bond& bond) const {
   const double dx = x_[bond.j] + bond.shift_x - x_[bond.i];
   const double dy = y_[bond.j] + bond.shift_y - y_[bond.i];
   const double r = std::sqrt(dx * dx + dy * dy);
   BondGeometry g{dx / r, dy / r, r - kDiameter, 0, 0, 0, 0};
   to_lab(orient_c_[bond.i], orient_s_[bond.i], bond.bix, bond.biy, g.xi_ix, g.xi_iy);
   to_lab(orient_c_[bond.j], orient_s_[bond.j], bond.bjx, bond.bjy, g.xi_jx, g.xi_jy);
-  return gel::bond_energy(g, params_.bond, params_.effects).total();
+  return g;
+}
+
+double System::bond_energy(const Bond& bond) const {
+  return gel::bond_energy(geometry(bond), params_.bond, params_.effects).total();
 }
 
 double System::stored_energy() const {
@@ -348,12 +361,7 @@ double System::stored_energy() const {
 // bond broke (it is marked and contributes no force), false when it was reset.
 bool System::handle_threshold(std::size_t b, double fn, double ft_sq, double moment, double nx, double ny) {
   Bond& bond = bonds_[b];
-  const double dx = x_[bond.j] + bond.shift_x - x_[bond.i];
-  const double dy = y_[bond.j] + bond.shift_y - y_[bond.i];
-  const double r = std::sqrt(dx * dx + dy * dy);
-  BondGeometry g{nx, ny, r - kDiameter, 0, 0, 0, 0};
-  to_lab(orient_c_[bond.i], orient_s_[bond.i], bond.bix, bond.biy, g.xi_ix, g.xi_iy);
-  to_lab(orient_c_[bond.j], orient_s_[bond.j], bond.bjx, bond.bjy, g.xi_jx, g.xi_jy);
+  const BondGeometry g = geometry(bond);
   const BondEnergy energy = gel::bond_energy(g, params_.bond, params_.effects);
   const BondLaw& law = params_.bond;
   if (fn > law.f_normal_critical) {
@@ -646,9 +654,7 @@ void System::step() {
     wall_travel_ += std::max(std::abs(wall_v_bottom_), std::abs(wall_v_top_)) * dt;
     impose_wall_motion();
   }
-  maybe_rebuild();
-  if (params_.effects & kBondCreation) detect_contacts();
-  if (walls_active_) attach_to_walls();
+  after_drift();
 
   compute_forces();
   if (drag)

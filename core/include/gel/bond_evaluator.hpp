@@ -78,6 +78,10 @@ struct BondEvaluator {
   }
 };
 
+// The evaluator for an effect set known only at run time (bookkeeping and checks, not the
+// step loop, which is instantiated per effect set).
+BondForces evaluate_bond(const BondGeometry& g, const BondLaw& law, unsigned effects);
+
 // Elastic energy stored in one bond, every term of the law (used for bookkeeping, not in the
 // step loop): k_N delta^2/2 + C theta(-delta) delta^4/4 + k_S |d|^2/2 + k_R a^2 phi^2/2.
 struct BondEnergy {

@@ -51,15 +51,17 @@ CompressionResult run_compression(const gel::v1::Scene& scene, const RunOptions&
                                   const Configuration* initial = nullptr);
 
 // One equilibrium test of MODEL.md, as the protocol runs it every m_exam steps once the walls
-// stopped: |P_top - P_bot|/P < A, |P - P'|/P < B and no bond broke since P'. When |P| and |P'|
+// stopped: |P_top - P_bot|/P < A, |P - P'|/P < B and no bond ruptured since P' (breaks and
+// resets, or breaks only with exam_ruptures "normal"). When |P| and |P'|
 // are both below stress_floor the relative tests are meaningless (no network carries stress):
 // then the step is at equilibrium when no bond broke and every free particle is slower than
 // rest_speed. `compression` is a resolved Compression message.
 struct EquilibriumSample {
   double p_top = 0, p_bot = 0;  // now [F0/a^2]
   double previous_p = 0;        // P' = P at the previous test (or when the walls stopped)
-  bool bond_broke = false;      // a bond broke (normal threshold) since P'
+  bool bond_broke = false;      // a counted rupture (compression.exam_ruptures) since P'
   double max_speed = 0;         // fastest free particle [a/t0]
+  bool spans = true;            // the network connects the walls; if not, only rest counts
 };
 bool equilibrium_reached(const EquilibriumSample& sample, const gel::v1::Compression& compression);
 

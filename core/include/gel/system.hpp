@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "gel/bond_evaluator.hpp"
 #include "gel/bond_law.hpp"
 #include "gel/configuration.hpp"
 #include "gel/effects.hpp"
@@ -35,6 +36,8 @@ struct SimParams {
 // The shortest natural period of one bond between two free particles (see README "Time
 // step"): omega_max^2 = 2 max(k_N/m, k_S/m, (k_S + k_R) a^2 / I) with k_R in F0 a.
 double shortest_period(const BondLaw& bond);
+// The same with another moment of inertia (FIRE's own, docs/quasistatic.md).
+double shortest_period(const BondLaw& bond, double inertia);
 
 // From a scene's bond, effects and integration messages; validates every field.
 SimParams resolve_sim_params(const gel::v1::Scene& scene);
@@ -62,6 +65,36 @@ struct EnergyLedger {
   double wall_work = 0;          // done by the walls on the particles bonded to them
   double absorbed_by_walls = 0;  // kinetic energy lost when a particle sticks to a wall
   double external_work = 0;      // done by external forces
+};
+
+// FIRE relaxation to mechanical equilibrium (docs/quasistatic.md): FIRE 2.0 (Guenole et al.,
+// Comput. Mater. Sci. 175, 109584, 2020) on translations and rotations, with every bond effect
+// of the scene active (thresholds, resets, breaks, creation, sticking to the walls) and no drag.
+struct RelaxOptions {
+  // Converged when every free particle's |F| and |T|/a is below
+  // max(force_tolerance * mean bond force, force_floor) and |P_top - P_bot| <= a_tolerance |P|
+  // (or |P| < stress_floor).
+  double force_tolerance = 1e-4;  // relative to the mean bond force
+  double force_floor = 1e-9;      // absolute [F0]: unloaded networks converge to this
+  double a_tolerance = 1e-2;
+  double stress_floor = 1e-6;     // [F0/a^2]
+  double dt_max_factor = 3;       // FIRE's largest step over the dynamics' dt (times the inertia gain)
+  double max_step = 0.02;         // largest move of a particle per iteration [a]
+};
+
+// FIRE's state between chunks of iterations, so a relaxation can be checkpointed mid-way.
+struct RelaxState {
+  double dt = 0;            // 0: not started
+  double dt_max = 0;        // FIRE's cap, lowered when steps at the cap go uphill
+  double alpha = 0;
+  std::int64_t n_positive = 0;
+  std::int64_t n_negative = 0;
+  std::int64_t iterations = 0;    // of this relaxation
+  double residual = 0;            // last max(|F|, |T|/a) over free particles [F0]
+  double force_scale = 0;         // last mean bond force [F0]
+  double tolerance_factor = 1;    // halved while the walls stay unbalanced
+  std::uint8_t converged = 0;
+  std::uint8_t stalled = 0;       // gave up: FIRE kept going uphill (N_negative^max)
 };
 
 struct WallStress {
@@ -123,7 +156,24 @@ class System {
   // (quasi-static approach shortcut).
   void translate_wall_group(WallSide side, double dy);
   WallStress wall_stress() const;  // from the last force evaluation
+  // Bonds the pairs that touch and sticks the particles that touch a wall, now (after a move
+  // outside the integrator, such as translate_wall_group), and evaluates the forces.
+  void update_contacts();
   double packing_fraction() const; // pi a^2 N / (L_x height)
+
+  // Quasi-static strain step: moves both walls to the given positions and every free particle
+  // affinely along y about the centre of the gap (x, orientations and bonds unchanged). The
+  // change of stored energy is booked as wall work.
+  void affine_move_walls(double new_bottom, double new_top);
+
+  // Runs up to max_iterations FIRE iterations at fixed walls (wall velocities set to zero) and
+  // returns whether the relaxation converged (state.converged). Iterations count as steps;
+  // simulated time does not advance. A fresh RelaxState starts from rest.
+  bool relax(RelaxState& state, const RelaxOptions& options, std::int64_t max_iterations);
+  // max(|F|, |T|/a) over free particles and the mean |F_N n + F_T| over bonds [F0], of the
+  // last force evaluation.
+  double residual_force() const;
+  double mean_bond_force() const;
 
   // External forces (three-point bending); work is tracked in the ledger.
   void set_external_force(std::int32_t i, double fx, double fy);
@@ -158,11 +208,13 @@ class System {
   void apply_external_forces();
   void collect_wall_forces();
   void check_stability();
+  void after_drift();
   bool handle_threshold(std::size_t b, double fn, double ft_sq, double moment, double nx, double ny);
   void create_bond(std::int32_t i, std::int32_t j, double shift_x, double shift_y);
   void attach(std::int32_t i, WallSide side);
   void remove_marked_bonds();
   double bond_energy(const Bond& bond) const;
+  BondGeometry geometry(const Bond& bond) const;
   [[noreturn]] void stability_failure(const std::string& what) const;
 
   SimParams params_;

@@ -1,0 +1,312 @@
+#!/usr/bin/env python3
+"""The quasi-static method against the paper's protocol, on ensembles of seeds.
+
+Runs `gelsim compress` for each ensemble (bond preset x gel size x fidelity x seeds), then
+compares the ensemble means of P_y(phi_k), contact number, ruptures by mode and the stored and
+dissipated energy, with 95 % bootstrap confidence intervals over seeds, and writes
+docs/quasistatic.md (with docs/quasistatic/results.json and plots).
+
+    python3 tools/quasistatic_study.py                       # every ensemble below, 2 at a time
+    python3 tools/quasistatic_study.py --only small-bond1    # one gel family
+    python3 tools/quasistatic_study.py --report-only         # tables from the cached runs
+
+Runs are cached in --work (default ~/.cache/gel-studies/quasistatic): a finished run is never
+run again, and an interrupted one resumes from its checkpoint, so the study can span sessions.
+A run that is still missing is listed in the report as missing; nothing is extrapolated.
+
+Only the Python standard library and gnuplot (Debian gnuplot-nox) are used.
+"""
+import argparse
+import concurrent.futures
+import json
+import math
+import os
+import random
+import shutil
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+# Gel families. "small": about 1400 particles, 22 flocs of 64 in 150 x 250 (phi_0 = 0.118, the
+# paper's aspect ratio 3:5); bond 2 uses the same box, so the same phi_0. "paper": the presets.
+GELS = {
+    "small-bond1": {"bond": {"preset": "bond1"},
+                    "generator": {"lx": 150, "ly": 250, "n_floc": 64, "n_clusters": 22}},
+    "small-bond2": {"bond": {"preset": "bond2"},
+                    "generator": {"lx": 150, "ly": 250, "n_floc": 64, "n_clusters": 22}},
+    "paper-bond1": {"preset": "paper-bond1"},
+    "paper-bond2": {"preset": "paper-bond2"},
+}
+FIDELITIES = ("quasistatic", "paper")
+DEFAULT_SEEDS = {"small-bond1": 8, "small-bond2": 8, "paper-bond1": 4, "paper-bond2": 4}
+
+BOOTSTRAP_SAMPLES = 4000
+
+
+def scene_for(gel, fidelity, seed):
+    scene = json.loads(json.dumps(GELS[gel]))
+    scene.setdefault("generator", {})["seed"] = seed
+    scene["compression"] = {"fidelity": fidelity}
+    scene["name"] = f"quasistatic-study {gel} {fidelity}"
+    return scene
+
+
+def finished(curve):
+    steps = curve.get("parameters", {}).get("compression", {}).get("steps", 0)
+    return bool(curve.get("rows")) and curve["rows"][-1]["k"] == steps
+
+
+def run_one(gelsim, work, gel, fidelity, seed):
+    out_dir = os.path.join(work, gel, fidelity, f"seed_{seed}")
+    curve_path = os.path.join(out_dir, "curve.json")
+    scene = scene_for(gel, fidelity, seed)
+    scene_path = os.path.join(out_dir, "scene.json")
+    if os.path.exists(curve_path):
+        with open(curve_path) as f:
+            curve = json.load(f)
+        if finished(curve):
+            return curve
+    os.makedirs(out_dir, exist_ok=True)
+    resume = os.path.exists(os.path.join(out_dir, "checkpoint.bin")) and os.path.exists(scene_path) \
+        and json.load(open(scene_path)) == scene
+    with open(scene_path, "w") as f:
+        json.dump(scene, f, indent=1)
+    command = [gelsim, "compress", "--no-snapshots"]
+    command += ["--resume", out_dir] if resume else ["--scene", scene_path, "--out", out_dir]
+    proc = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{gel} {fidelity} seed {seed}: gelsim exited {proc.returncode}: "
+                           f"{proc.stderr.strip().splitlines()[-1:] if proc.stderr else ''}")
+    with open(curve_path) as f:
+        return json.load(f)
+
+
+def cached(work, gel, fidelity, seed):
+    path = os.path.join(work, gel, fidelity, f"seed_{seed}", "curve.json")
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        curve = json.load(f)
+    return curve if finished(curve) else None
+
+
+# --- Statistics -------------------------------------------------------------------------------
+
+def mean(values):
+    return sum(values) / len(values)
+
+
+def bootstrap_mean(values, rng):
+    """Mean and 95 % percentile interval of the mean over resampled seeds."""
+    if len(values) < 2:
+        return mean(values), float("nan"), float("nan")
+    means = sorted(mean([rng.choice(values) for _ in values]) for _ in range(BOOTSTRAP_SAMPLES))
+    return mean(values), means[int(0.025 * BOOTSTRAP_SAMPLES)], means[int(0.975 * BOOTSTRAP_SAMPLES) - 1]
+
+
+def bootstrap_difference(a, b, rng):
+    """95 % interval of mean(a) - mean(b), seeds resampled independently."""
+    if len(a) < 2 or len(b) < 2:
+        return float("nan"), float("nan")
+    diffs = sorted(mean([rng.choice(a) for _ in a]) - mean([rng.choice(b) for _ in b])
+                   for _ in range(BOOTSTRAP_SAMPLES))
+    return diffs[int(0.025 * BOOTSTRAP_SAMPLES)], diffs[int(0.975 * BOOTSTRAP_SAMPLES) - 1]
+
+
+def row_summary(row):
+    r = row["ruptures"]
+    return {"k": row["k"], "phi": row["phi"], "P": row["P"], "P_top": row["P_top"], "P_bot": row["P_bot"],
+            "z": row["contact_number"], "stored": row["stored_energy"],
+            "dissipated": row["dissipated_energy"], "normal": r["normal"], "sliding": r["sliding"],
+            "rolling": r["rolling"], "equilibrated": row["equilibrated"], "spans": row.get("spans", True),
+            "residual_force": row.get("residual_force", 0.0), "relax_iterations": row.get("relax_iterations", 0),
+            "steps": row["steps"], "wall_seconds": row["wall_seconds"]}
+
+
+# --- Report -----------------------------------------------------------------------------------
+
+def fmt(x, digits=3):
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "–"
+    return f"{x:.{digits}g}"
+
+
+def gnuplot(script, cwd):
+    if shutil.which("gnuplot") is None:
+        raise RuntimeError("gnuplot not found: install gnuplot-nox (scripts/setup.sh does)")
+    subprocess.run(["gnuplot"], input=script, text=True, cwd=cwd, check=True)
+
+
+def plot_curves(gel, ensembles, pictures, rng):
+    """P_y(phi) of both fidelities, ensemble means with their bootstrap intervals."""
+    lines = []
+    for fidelity in FIDELITIES:
+        runs = ensembles.get(fidelity, [])
+        if not runs:
+            continue
+        data = os.path.join(pictures, f"{gel}-{fidelity}.dat")
+        with open(data, "w") as f:
+            f.write("# phi_mean P_mean P_low P_high equilibrated_fraction\n")
+            for k in range(1, min(len(r["rows"]) for r in runs)):
+                ps = [r["rows"][k]["P"] for r in runs]
+                m, low, high = bootstrap_mean(ps, rng)
+                if m <= 0 or low <= 0:
+                    continue
+                phi = mean([r["rows"][k]["phi"] for r in runs])
+                eq = mean([1.0 if r["rows"][k]["equilibrated"] else 0.0 for r in runs])
+                f.write(f"{phi:.6g} {m:.6g} {low:.6g} {high:.6g} {eq:.3g}\n")
+        lines.append(f"'{os.path.basename(data)}' using 1:2:3:4 with yerrorlines lw 2 pt 7 "
+                     f"title '{fidelity} ({len(runs)} seeds)'")
+    if not lines:
+        return None
+    name = f"{gel}-P_y.png"
+    gnuplot("set terminal pngcairo size 720,520 font ',11'\n"
+            f"set output '{name}'\nset logscale xy\nset xlabel 'φ'\nset ylabel 'P_y  [F_0/a^2]'\n"
+            "set key top left\nset grid\nset format y '10^{%L}'\n"
+            "plot " + ", ".join(lines) + "\n", pictures)
+    return name
+
+
+def write_report(args, results, rng):
+    pictures = os.path.join(ROOT, "docs", "quasistatic")
+    os.makedirs(pictures, exist_ok=True)
+    out = []
+    out.append("# Converged quasi-static compression\n")
+    out.append(METHOD_TEXT)
+    out.append("## Results\n")
+    out.append(f"Generated by `python3 tools/quasistatic_study.py` on {time.strftime('%Y-%m-%d')} from the "
+               "cached runs; every number below is an ensemble mean over the seeds named, with the 95 % "
+               "bootstrap interval of the mean (seeds resampled, "
+               f"{BOOTSTRAP_SAMPLES} samples) in brackets. Raw per-run rows: "
+               "[quasistatic/results.json](quasistatic/results.json).\n")
+    for gel in GELS:
+        ensembles = results.get(gel, {})
+        if not any(ensembles.values()):
+            out.append(f"### {gel}\n\nNo finished runs yet.\n")
+            continue
+        out.append(f"### {gel}\n")
+        for fidelity in FIDELITIES:
+            runs = ensembles.get(fidelity, [])
+            if runs:
+                times = [r["rows"][-1]["wall_seconds"] for r in runs]
+                iters = [r["rows"][-1]["steps"] for r in runs]
+                out.append(f"- `{fidelity}`: {len(runs)} seeds ({', '.join(str(r['seed']) for r in runs)}); "
+                           f"wall time per run {fmt(min(times))}–{fmt(max(times))} s (mean {fmt(mean(times))} s), "
+                           f"steps + FIRE iterations {fmt(mean(iters), 4)} per run; rows equilibrated "
+                           f"{sum(1 for r in runs for row in r['rows'][1:] if row['equilibrated'])}/"
+                           f"{sum(len(r['rows']) - 1 for r in runs)}.")
+            else:
+                out.append(f"- `{fidelity}`: no finished run yet.")
+        out.append("")
+        both = all(ensembles.get(f) for f in FIDELITIES)
+        header = "| k | φ_k | P_y quasistatic | eq. | P_y paper | eq. | QS − paper (95 % CI) | agree |"
+        out.append(header)
+        out.append("|---|---|---|---|---|---|---|---|")
+        rows_count = max((len(r["rows"]) for f in FIDELITIES for r in ensembles.get(f, [])), default=0)
+        for k in range(1, rows_count):
+            cells = [str(k)]
+            phis = [r["rows"][k]["phi"] for f in FIDELITIES for r in ensembles.get(f, []) if len(r["rows"]) > k]
+            cells.append(fmt(mean(phis), 4) if phis else "–")
+            values = {}
+            for fidelity in FIDELITIES:
+                runs = [r for r in ensembles.get(fidelity, []) if len(r["rows"]) > k]
+                if not runs:
+                    cells += ["–", "–"]
+                    continue
+                ps = [r["rows"][k]["P"] for r in runs]
+                values[fidelity] = ps
+                m, low, high = bootstrap_mean(ps, rng)
+                cells.append(f"{fmt(m)} [{fmt(low)}, {fmt(high)}]")
+                cells.append(f"{sum(1 for r in runs if r['rows'][k]['equilibrated'])}/{len(runs)}")
+            if both and len(values) == 2:
+                low, high = bootstrap_difference(values["quasistatic"], values["paper"], rng)
+                cells.append(f"[{fmt(low)}, {fmt(high)}]")
+                cells.append("yes" if low <= 0 <= high else "**no**")
+            else:
+                cells += ["–", "–"]
+            out.append("| " + " | ".join(cells) + " |")
+        out.append("")
+        out.append("At the last target (φ = 0.74):\n")
+        out.append("| observable | quasistatic | paper | QS − paper (95 % CI) |")
+        out.append("|---|---|---|---|")
+        for key, label in (("z", "contact number z"), ("normal", "normal breaks / N"), ("sliding", "sliding resets / N"),
+                           ("rolling", "rolling resets / N"), ("stored", "stored energy / N [F0 a]"),
+                           ("dissipated", "dissipated energy / N [F0 a]")):
+            cells = [label]
+            values = {}
+            for fidelity in FIDELITIES:
+                runs = ensembles.get(fidelity, [])
+                if not runs:
+                    cells.append("–")
+                    continue
+                per = [row_summary(r["rows"][-1])[key] / (1 if key == "z" else r["particles"]) for r in runs]
+                values[fidelity] = per
+                m, low, high = bootstrap_mean(per, rng)
+                cells.append(f"{fmt(m)} [{fmt(low)}, {fmt(high)}]")
+            if len(values) == 2:
+                low, high = bootstrap_difference(values["quasistatic"], values["paper"], rng)
+                cells.append(f"[{fmt(low)}, {fmt(high)}]")
+            else:
+                cells.append("–")
+            out.append("| " + " | ".join(cells) + " |")
+        out.append("")
+        picture = plot_curves(gel, ensembles, pictures, rng)
+        if picture:
+            out.append(f"![P_y of {gel}](quasistatic/{picture})\n")
+    with open(os.path.join(ROOT, "docs", "quasistatic.md"), "w") as f:
+        f.write("\n".join(out) + "\n")
+    compact = {gel: {fidelity: [{"seed": r["seed"], "particles": r["particles"],
+                                 "rows": [row_summary(row) for row in r["rows"]]}
+                                for r in runs] for fidelity, runs in ensembles.items()}
+               for gel, ensembles in results.items()}
+    with open(os.path.join(pictures, "results.json"), "w") as f:
+        json.dump(compact, f, indent=0)
+
+
+METHOD_TEXT = open(os.path.join(ROOT, "docs", "quasistatic_method.md")).read() \
+    if os.path.exists(os.path.join(ROOT, "docs", "quasistatic_method.md")) else ""
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--gelsim", default=os.path.join(ROOT, "build", "core", "gelsim"))
+    parser.add_argument("--work", default=os.path.expanduser("~/.cache/gel-studies/quasistatic"))
+    parser.add_argument("--only", action="append", choices=sorted(GELS), help="gel families to run (repeatable)")
+    parser.add_argument("--fidelity", action="append", choices=FIDELITIES, help="fidelities to run (repeatable)")
+    parser.add_argument("--seeds", type=int, help="seeds 1..N per ensemble (default: 8 small, 4 paper size)")
+    parser.add_argument("--jobs", type=int, default=2, help="runs at a time")
+    parser.add_argument("--report-only", action="store_true", help="no runs: tables from the cached runs")
+    args = parser.parse_args()
+    gels = args.only or list(GELS)
+    fidelities = args.fidelity or list(FIDELITIES)
+
+    if not args.report_only:
+        tasks = [(gel, fidelity, seed) for gel in gels for fidelity in fidelities
+                 for seed in range(1, (args.seeds or DEFAULT_SEEDS[gel]) + 1)]
+        with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
+            futures = {pool.submit(run_one, args.gelsim, args.work, *task): task for task in tasks}
+            for future in concurrent.futures.as_completed(futures):
+                gel, fidelity, seed = futures[future]
+                try:
+                    curve = future.result()
+                    print(f"{gel} {fidelity} seed {seed}: {curve['rows'][-1]['wall_seconds']:.0f} s", flush=True)
+                except RuntimeError as error:
+                    print(f"FAILED {error}", file=sys.stderr, flush=True)
+
+    results = {}
+    for gel in GELS:
+        for fidelity in FIDELITIES:
+            runs = []
+            for seed in range(1, 65):
+                curve = cached(args.work, gel, fidelity, seed)
+                if curve:
+                    curve["seed"] = seed
+                    runs.append(curve)
+            results.setdefault(gel, {})[fidelity] = runs
+    write_report(args, results, random.Random(20261202))
+
+
+if __name__ == "__main__":
+    main()
