@@ -329,6 +329,8 @@ gel::v1::Curve planted_curve() {
     row->set_phi(0.12 * std::pow(1.1, k));
     row->set_target_phi(row->phi());
     row->set_p(std::pow(row->phi(), 3));
+    row->set_equilibrated(true);
+    row->set_spans(true);
     row->set_stored_energy(stored);
     row->set_dissipated_energy(dissipated);
     row->mutable_ruptures()->set_normal(normal);
@@ -491,6 +493,27 @@ TEST(Structure, AnalysisOfAGeneratedGelHasEveryPart) {
   for (const char* key : {"phi", "correlation", "fractal_dimension_profile", "fractal_dimension_fit", "xi_05"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["correlation"]["r"].size(), j["correlation"]["C"].size());
+}
+
+TEST(RunAnalysis, FitsLeaveOutRowsThatAreNotAnEquilibriumYieldStress) {
+  // Rows 1-3 stopped at the wait limit with P ten times the law, row 4 did not span: a fit
+  // over them would not return the planted exponent. Flagged, they stay out of it.
+  gel::v1::Curve curve = planted_curve();
+  for (int k : {1, 2, 3}) {
+    curve.mutable_rows(k)->set_p(10 * curve.rows(k).p());
+    curve.mutable_rows(k)->set_equilibrated(false);
+  }
+  curve.mutable_rows(4)->set_p(10 * curve.rows(4).p());
+  curve.mutable_rows(4)->set_spans(false);
+  const CurveAnalysis a = analyse_curves({curve}, RunAnalysisOptions{});
+  ASSERT_TRUE(a.power_law.has_value());
+  EXPECT_NEAR(a.power_law->exponent, 3.0, 1e-9);
+  // The same rows trusted: the fit is visibly off.
+  for (int k : {1, 2, 3}) curve.mutable_rows(k)->set_equilibrated(true);
+  curve.mutable_rows(4)->set_spans(true);
+  const CurveAnalysis biased = analyse_curves({curve}, RunAnalysisOptions{});
+  ASSERT_TRUE(biased.power_law.has_value());
+  EXPECT_LT(biased.power_law->exponent, 2.5);
 }
 
 TEST(RunAnalysis, DirectoryWithCurveAndSnapshotsGivesFitsStructureAndPictures) {

@@ -51,14 +51,21 @@ CurveAnalysis analyse_curves(const std::vector<gel::v1::Curve>& curves, const Ru
   CurveAnalysis a;
   a.ensemble = curve_ensemble(curves);
   a.mean_curve = mean_curve(curves, a.ensemble);
+  // Fits trust only rows that every member reached at equilibrium with a spanning network: a
+  // wait-limited row is the stress at an arbitrary time, and a row that does not span carries
+  // drag, not a yield stress. Row 0 is the unloaded start.
   std::vector<double> phi, p;
-  for (int k = 0; k < a.mean_curve.rows_size(); ++k) {
+  for (int k = 1; k < a.mean_curve.rows_size(); ++k) {
+    bool trusted = true;
+    for (const gel::v1::Curve& curve : curves)
+      trusted = trusted && k < curve.rows_size() && curve.rows(k).equilibrated() && curve.rows(k).spans();
+    if (!trusted) continue;
     phi.push_back(a.mean_curve.rows(k).phi());
     p.push_back(a.mean_curve.rows(k).p());
   }
   double lo = options.fit_phi_min, hi = options.fit_phi_max;
   if (lo <= 0 && hi <= 0) {
-    lo = phi.size() > 1 ? phi[1] : 0.0;
+    lo = phi.empty() ? 0.0 : phi.front();
     hi = phi.empty() ? 0.0 : phi.back();
   } else if (hi <= 0) {
     hi = phi.empty() ? 0.0 : phi.back();
