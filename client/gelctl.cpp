@@ -212,6 +212,11 @@ json job_json(const gel::v1::Job& job) {
                      {"elapsed_seconds", p.elapsed_seconds()},
                      {"remaining_seconds", p.remaining_seconds()},
                      {"phase", p.phase()}};
+    if (p.relax_iterations() > 0) {
+      j["progress"]["residual_force"] = p.residual_force();
+      j["progress"]["residual_target"] = p.residual_target();
+      j["progress"]["relax_iterations"] = p.relax_iterations();
+    }
   }
   std::string scene;
   google::protobuf::util::JsonPrintOptions options;
@@ -298,6 +303,10 @@ class WatchPrinter {
         line << member_tag(u) << (p.phase().empty() ? "" : p.phase() + " ") << "phi " << fmt(p.phi(), 4) << " -> "
              << fmt(p.target_phi(), 4) << "  step " << p.k() << "/" << p.k_total() << "  P " << fmt(p.p(), 4)
              << "  elapsed " << fmt_seconds(p.elapsed_seconds()) << "  ETA " << fmt_seconds(p.remaining_seconds());
+        // Quasi-static runs: show the relaxation converging.
+        if (p.relax_iterations() > 0)
+          line << "  residual " << fmt(p.residual_force(), 3) << " (target " << fmt(p.residual_target(), 3) << ", "
+               << p.relax_iterations() << " it)";
         if (tty_) {
           const int width = 24;
           const double frac = p.k_total() > 0 ? std::clamp((p.k() - 1.0) / p.k_total(), 0.0, 1.0) : 0.0;
@@ -502,7 +511,7 @@ int main(int argc, char** argv) {
   submit->add_option("--seeds", seeds_text, "Ensemble seeds: 1,2,3 or 1-10");
   submit->add_option("--name", name, "Job name");
   submit->add_option("--label", labels, "key=value (repeatable)");
-  submit->add_option("--fidelity", fidelity, "compression.fidelity: fast, default, paper");
+  submit->add_option("--fidelity", fidelity, "compression.fidelity: fast, default, paper, quasistatic");
   submit->add_option("--set", sets, "Override a scene field: dotted.name=value (repeatable)");
   submit->add_flag("--watch,-w", submit_watch, "Follow the job until it ends");
   submit->add_flag("--json", submit_json, "Print the job as JSON (and JSON lines while watching)");

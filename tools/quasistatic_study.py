@@ -283,8 +283,9 @@ def main():
     fidelities = args.fidelity or list(FIDELITIES)
 
     if not args.report_only:
-        tasks = [(gel, fidelity, seed) for gel in gels for fidelity in fidelities
-                 for seed in range(1, (args.seeds or DEFAULT_SEEDS[gel]) + 1)]
+        # Seed-major, so that an interrupted study leaves comparable ensembles of both fidelities.
+        tasks = [(gel, fidelity, seed) for gel in gels
+                 for seed in range(1, (args.seeds or DEFAULT_SEEDS[gel]) + 1) for fidelity in fidelities]
         with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
             futures = {pool.submit(run_one, args.gelsim, args.work, *task): task for task in tasks}
             for future in concurrent.futures.as_completed(futures):
