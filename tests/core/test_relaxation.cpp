@@ -3,6 +3,7 @@
 // back from the code, so a wrong preset fails here too.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -31,7 +32,7 @@ RelaxState relax_fully(System& system, const RelaxOptions& options, std::vector<
                        std::int64_t max_iterations = 400000) {
   RelaxState state;
   while (!state.converged && !state.stalled && state.iterations < max_iterations) {
-    system.relax(state, options, 1000);
+    system.relax(state, options, 50);
     if (residuals) residuals->push_back(state.residual);
   }
   return state;
@@ -76,9 +77,10 @@ TEST(Relaxation, ResidualDecreasesAndResetsArePartOfThePath) {
   RelaxState loaded = relax_fully(system, options, &residuals);
   ASSERT_TRUE(loaded.converged) << "residual " << loaded.residual;
   EXPECT_GT(system.events().rolling, 0);
-  // The residual of the last chunks decreases: the tail of the trace is monotonic per chunk
-  // once the last reset happened (compare the end with the middle).
-  EXPECT_LT(residuals.back(), residuals[residuals.size() / 2] + 1e-300);
+  // The residual (sampled every 50 iterations) fell by orders of magnitude from its largest
+  // value, resets on the way included.
+  ASSERT_GE(residuals.size(), 3u);
+  EXPECT_LT(residuals.back(), 1e-6 * *std::max_element(residuals.begin(), residuals.end()));
   system.clear_external_forces();
   const RelaxState unloaded = relax_fully(system, options);
   ASSERT_TRUE(unloaded.converged);
@@ -174,8 +176,8 @@ TEST(Relaxation, StiffContactsStayStable) {
   system.set_external_force(10, -0.01, 0);
   RelaxOptions options;
   options.force_tolerance = 1e-6;
-  // The stiff mode's oscillation makes FIRE restart often, so the soft mode creeps: ~1e6
-  // iterations of 11 particles (about a second).
+  // With FIRE's cap well above the stiff mode's stability limit the soft mode only creeps
+  // (about 1e6 iterations at cap factor 10): the budget allows for a cap set too high.
   const RelaxState state = relax_fully(system, options, nullptr, 2000000);
   ASSERT_TRUE(state.converged) << "residual " << state.residual << " after " << state.iterations << " stalled "
                                << int(state.stalled) << " dt " << state.dt << " cap " << state.dt_max;
