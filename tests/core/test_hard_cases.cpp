@@ -9,6 +9,7 @@
 #include "gel/errors.hpp"
 #include "gel/system.hpp"
 #include "gel/units.hpp"
+#include "test_scenes.hpp"
 
 namespace gel {
 namespace {
@@ -79,11 +80,7 @@ TEST(HardCases, TinyStressOnAChainSpanningTheWalls) {
   // A straight vertical chain of n particles between the walls, compressed by 1e-7 a: the
   // n - 1 normal springs in series carry F = k_N 1e-7 / (n - 1), and P = F / (2a L_x) ~ 1e-9.
   const int n = 9;
-  Configuration config;
-  config.lx = 30;
-  config.ly = 2.0 * n + 10;
-  for (int k = 0; k < n; ++k) config.add_particle(5, 5 + kDiameter * k);
-  for (int k = 0; k + 1 < n; ++k) config.add_bond_at_contact(k, k + 1);
+  const Configuration config = vertical_chain(n, 30);
   SimParams params = params_for("bond1", kAllEffects & ~kBondCreation);
   System system(config, params);
   system.install_walls();

@@ -13,6 +13,7 @@
 #include "gel/generator.hpp"
 #include "gel/system.hpp"
 #include "gel/units.hpp"
+#include "test_scenes.hpp"
 
 namespace gel {
 namespace {
@@ -38,14 +39,20 @@ RelaxState relax_fully(System& system, const RelaxOptions& options, std::vector<
   return state;
 }
 
-TEST(Relaxation, ThreePointBendingReachesTheSpringChainDeflection) {
-  // The joint at distance (2k+1)a from an end carries the moment (F/2)(2k+1)a and the shear F/2:
-  // w = F [ (1 + 9 + 25 + 49 + 81) a^2 / (2 k_R a^2) + 5 / (2 k_S) ] for 11 particles.
-  System system(straight_chain(11), bond1(bending_effects()));
-  const double force = 0.02;
+// An 11-particle chain under the three-point load F (MODEL.md "Three-point bending").
+System loaded_chain(const SimParams& params, double force) {
+  System system(straight_chain(11), params);
   system.set_external_force(5, force, 0);
   system.set_external_force(0, -0.5 * force, 0);
   system.set_external_force(10, -0.5 * force, 0);
+  return system;
+}
+
+TEST(Relaxation, ThreePointBendingReachesTheSpringChainDeflection) {
+  // The joint at distance (2k+1)a from an end carries the moment (F/2)(2k+1)a and the shear F/2:
+  // w = F [ (1 + 9 + 25 + 49 + 81) a^2 / (2 k_R a^2) + 5 / (2 k_S) ] for 11 particles.
+  const double force = 0.02;
+  System system = loaded_chain(bond1(bending_effects()), force);
   RelaxOptions options;
   options.force_tolerance = 1e-10;
   options.force_floor = 1e-13;
@@ -66,11 +73,8 @@ TEST(Relaxation, ThreePointBendingReachesTheSpringChainDeflection) {
 TEST(Relaxation, ResidualDecreasesAndResetsArePartOfThePath) {
   // Above the bending threshold (2/9 F0 for small deflections) rolling resets happen during the
   // relaxation; it still converges, and after unloading the chain stays bent (plastic).
-  System system(straight_chain(11), bond1(bending_effects()));
   const double force = 0.35;
-  system.set_external_force(5, force, 0);
-  system.set_external_force(0, -0.5 * force, 0);
-  system.set_external_force(10, -0.5 * force, 0);
+  System system = loaded_chain(bond1(bending_effects()), force);
   RelaxOptions options;
   options.force_tolerance = 1e-8;
   std::vector<double> residuals;
@@ -92,11 +96,7 @@ TEST(Relaxation, LoadedChainBetweenWallsCarriesTheSeriesSpringStress) {
   // series are each compressed by delta = Delta / (n - 1) and carry F = k_N delta + C delta^3
   // (the cubic term is 6e-5 of the linear one here), and P = F / (2a L_x) on both walls.
   const int n = 9;
-  Configuration config;
-  config.lx = 30;
-  config.ly = 2.0 * n + 10;
-  for (int k = 0; k < n; ++k) config.add_particle(5, 5 + kDiameter * k);
-  for (int k = 0; k + 1 < n; ++k) config.add_bond_at_contact(k, k + 1);
+  const Configuration config = vertical_chain(n, 30);
   System system(config, bond1(kAllEffects & ~kBondCreation));
   system.install_walls();
   const double squeeze = 1e-3;
@@ -170,10 +170,7 @@ TEST(Relaxation, StiffContactsStayStable) {
   // the mean bond force moves w by far less than 1e-3).
   SimParams params = bond1(bending_effects());
   params.bond.k_normal = 2e4;
-  System system(straight_chain(11), params);
-  system.set_external_force(5, 0.02, 0);
-  system.set_external_force(0, -0.01, 0);
-  system.set_external_force(10, -0.01, 0);
+  System system = loaded_chain(params, 0.02);
   RelaxOptions options;
   options.force_tolerance = 1e-6;
   // With FIRE's cap well above the stiff mode's stability limit the soft mode only creeps
