@@ -22,17 +22,6 @@ SimParams params_for(const char* preset, unsigned effects) {
   return params;
 }
 
-Configuration pair_along_x(double gap) {
-  Configuration config;
-  config.lx = config.ly = 40;
-  config.periodic_y = false;
-  config.add_particle(10, 10);
-  config.add_particle(10 + kDiameter, 10);
-  config.add_bond_at_contact(0, 1);
-  config.x[1] += gap;
-  return config;
-}
-
 TEST(HardCases, TimeStepAtTheVerletLimitRunsAndJustBeyondStops) {
   // A pair on its normal spring is one oscillator, omega = sqrt(2 k_N/m); velocity Verlet is
   // stable for omega dt < 2 and grows by |lambda| ~ 1 + sqrt(8 eps) per step beyond it.

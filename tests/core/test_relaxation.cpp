@@ -120,13 +120,7 @@ TEST(Relaxation, LoadedChainBetweenWallsCarriesTheSeriesSpringStress) {
 TEST(Relaxation, OverlapPressedPairReachesTheCubicLawEquilibrium) {
   // k_N delta + C delta^3 = -F for a pair pressed by F = 50 F0 (C = 8e4 F0/a^3): deep in the
   // cubic range, where the contact is ~40x stiffer than k_N.
-  Configuration config;
-  config.lx = config.ly = 40;
-  config.periodic_y = false;
-  config.add_particle(10, 10);
-  config.add_particle(10 + kDiameter, 10);
-  config.add_bond_at_contact(0, 1);
-  System system(config, bond1(kNormalSpring | kOverlapRepulsion));
+  System system(pair_along_x(0.0), bond1(kNormalSpring | kOverlapRepulsion));
   const double load = 50;
   system.set_external_force(0, load, 0);
   system.set_external_force(1, -load, 0);
@@ -182,16 +176,22 @@ TEST(Relaxation, StiffContactsStayStable) {
   EXPECT_NEAR(chain_deflection(system) / expected, 1.0, 2e-3);
 }
 
+// 160 particles (20 flocs of 8) in 60 x 60 with walls installed.
+System gel_between_walls() {
+  gel::v1::Generator generator;
+  generator.set_lx(60);
+  generator.set_ly(60);
+  generator.set_n_floc(8);
+  generator.set_n_clusters(20);
+  generator.set_seed(5);
+  System system(generate_gel(resolve_generator(generator)), bond1(kAllEffects));
+  system.install_walls();
+  return system;
+}
+
 TEST(Relaxation, IsDeterministic) {
   auto run = [] {
-    gel::v1::Generator generator;
-    generator.set_lx(60);
-    generator.set_ly(60);
-    generator.set_n_floc(8);
-    generator.set_n_clusters(20);
-    generator.set_seed(5);
-    System system(generate_gel(resolve_generator(generator)), bond1(kAllEffects));
-    system.install_walls();
+    System system = gel_between_walls();
     const double height = system.wall_top() - system.wall_bottom();
     system.affine_move_walls(system.wall_bottom() + 0.02 * height, system.wall_top() - 0.02 * height);
     RelaxOptions options;
@@ -204,14 +204,7 @@ TEST(Relaxation, IsDeterministic) {
 TEST(Relaxation, AStrainStepThatCrushesContactsFailsLoudly) {
   // 20% of the gap in one affine step pushes neighbours half a radius into each other: the
   // stability guard stops the relaxation with a message, it does not return a curve row.
-  gel::v1::Generator generator;
-  generator.set_lx(60);
-  generator.set_ly(60);
-  generator.set_n_floc(8);
-  generator.set_n_clusters(20);
-  generator.set_seed(5);
-  System system(generate_gel(resolve_generator(generator)), bond1(kAllEffects));
-  system.install_walls();
+  System system = gel_between_walls();
   const double height = system.wall_top() - system.wall_bottom();
   RelaxState state;
   EXPECT_THROW(

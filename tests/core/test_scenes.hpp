@@ -16,4 +16,16 @@ inline Configuration vertical_chain(int n, double lx) {
   return config;
 }
 
+// Two bonded particles along x in an open 40 x 40 box, the second moved by `gap` from contact.
+inline Configuration pair_along_x(double gap) {
+  Configuration config;
+  config.lx = config.ly = 40;
+  config.periodic_y = false;
+  config.add_particle(10, 10);
+  config.add_particle(10 + kDiameter, 10);
+  config.add_bond_at_contact(0, 1);
+  config.x[1] += gap;
+  return config;
+}
+
 }  // namespace gel
