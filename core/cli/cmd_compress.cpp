@@ -138,20 +138,14 @@ std::string duration_text(double seconds) {
 }
 
 std::string progress_text(const gel::v1::Progress& p) {
+  // Quasi-static runs also show the relaxation converging.
+  char relaxation[96] = "";
+  if (p.phase() == "relaxing" || (p.phase() == "compressing" && p.relax_iterations() > 0))
+    std::snprintf(relaxation, sizeof relaxation, "  residual %.2e (target %.2e) after %lld it", p.residual_force(),
+                  p.residual_target(), static_cast<long long>(p.relax_iterations()));
   char buffer[320];
-  if (p.phase() == "relaxing" || (p.phase() == "compressing" && p.relax_iterations() > 0)) {
-    std::snprintf(buffer, sizeof buffer,
-                  "%-11s k %d/%d  phi %.4f -> %.4f  P %.3e  residual %.2e (target %.2e) after %lld it  breaks %lld  "
-                  "resets %lld  elapsed %s  eta %s",
-                  p.phase().c_str(), p.k(), p.k_total(), p.phi(), p.target_phi(), p.p(), p.residual_force(),
-                  p.residual_target(), static_cast<long long>(p.relax_iterations()),
-                  static_cast<long long>(p.events().normal()),
-                  static_cast<long long>(p.events().sliding() + p.events().rolling()),
-                  duration_text(p.elapsed_seconds()).c_str(), duration_text(p.remaining_seconds()).c_str());
-    return buffer;
-  }
-  std::snprintf(buffer, sizeof buffer, "%-11s k %d/%d  phi %.4f -> %.4f  P %.3e  breaks %lld  resets %lld  elapsed %s  eta %s",
-                p.phase().c_str(), p.k(), p.k_total(), p.phi(), p.target_phi(), p.p(),
+  std::snprintf(buffer, sizeof buffer, "%-11s k %d/%d  phi %.4f -> %.4f  P %.3e%s  breaks %lld  resets %lld  elapsed %s  eta %s",
+                p.phase().c_str(), p.k(), p.k_total(), p.phi(), p.target_phi(), p.p(), relaxation,
                 static_cast<long long>(p.events().normal()),
                 static_cast<long long>(p.events().sliding() + p.events().rolling()),
                 duration_text(p.elapsed_seconds()).c_str(), duration_text(p.remaining_seconds()).c_str());

@@ -11,6 +11,7 @@
 #include "gel/bond_evaluator.hpp"
 #include "gel/errors.hpp"
 #include "gel/units.hpp"
+#include "rotation.hpp"
 
 namespace gel {
 
@@ -21,21 +22,6 @@ namespace {
 constexpr unsigned kShiftBit = 1u << 5;
 constexpr unsigned kBondEffectBits = kNormalSpring | kOverlapRepulsion | kSliding | kRolling | kThresholds;
 constexpr std::size_t kBondVariants = 64;
-
-// Rotation of (c, s) by a small angle alpha = omega dt. The speed guard keeps |alpha| <= 0.1
-// (a|omega| <= 0.1 a/dt), where these series are exact to ~1e-16; std::cos/sin per particle
-// per step would cost more than the whole rest of the integrator.
-inline void rotate_small(double& c, double& s, double alpha) {
-  const double a2 = alpha * alpha;
-  const double cos_a = 1.0 - a2 * (0.5 - a2 * (1.0 / 24 - a2 * (1.0 / 720 - a2 * (1.0 / 40320))));
-  const double sin_a = alpha * (1.0 - a2 * (1.0 / 6 - a2 * (1.0 / 120 - a2 * (1.0 / 5040 - a2 * (1.0 / 362880)))));
-  const double c_new = c * cos_a - s * sin_a;
-  const double s_new = s * cos_a + c * sin_a;
-  // One Newton step towards |(c, s)| = 1 keeps the orientation a rotation.
-  const double norm_fix = 1.5 - 0.5 * (c_new * c_new + s_new * s_new);
-  c = c_new * norm_fix;
-  s = s_new * norm_fix;
-}
 
 // Body-frame vector b rotated into the lab frame by R(theta) = [[c, -s], [s, c]].
 inline void to_lab(double c, double s, double bx, double by, double& lx, double& ly) {

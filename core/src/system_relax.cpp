@@ -12,6 +12,7 @@
 #include "gel/errors.hpp"
 #include "gel/system.hpp"
 #include "gel/units.hpp"
+#include "rotation.hpp"
 
 namespace gel {
 
@@ -30,18 +31,6 @@ constexpr double kCapShrink = 0.9;            // dt_max after an uphill step tak
 // The mean bond force is a bond loop: refreshed this often (and whenever the residual looks
 // converged), so its cost stays a few percent of the force loop.
 constexpr std::int64_t kScaleInterval = 64;
-
-// Same small-angle rotation as the integrator (system.cpp); |alpha| <= max_step / a <= 0.1.
-inline void rotate_by(double& c, double& s, double alpha) {
-  const double a2 = alpha * alpha;
-  const double cos_a = 1.0 - a2 * (0.5 - a2 * (1.0 / 24 - a2 * (1.0 / 720)));
-  const double sin_a = alpha * (1.0 - a2 * (1.0 / 6 - a2 * (1.0 / 120 - a2 * (1.0 / 5040))));
-  const double c_new = c * cos_a - s * sin_a;
-  const double s_new = s * cos_a + c * sin_a;
-  const double norm_fix = 1.5 - 0.5 * (c_new * c_new + s_new * s_new);
-  c = c_new * norm_fix;
-  s = s_new * norm_fix;
-}
 
 }  // namespace
 
@@ -201,7 +190,7 @@ bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t 
       for (std::size_t i = 0; i < n; ++i) {
         x_[i] += back * vx_[i];
         y_[i] += back * vy_[i];
-        rotate_by(orient_c_[i], orient_s_[i], back * omega_[i]);
+        rotate_small(orient_c_[i], orient_s_[i], back * omega_[i]);
         vx_[i] = vy_[i] = omega_[i] = 0.0;
       }
       v_sq = fv_over_m = 0;
@@ -235,7 +224,7 @@ bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t 
       omega_[i] = wi / kRadius;
       x_[i] += dt * vxi;
       y_[i] += dt * vyi;
-      rotate_by(orient_c_[i], orient_s_[i], dt * omega_[i]);
+      rotate_small(orient_c_[i], orient_s_[i], dt * omega_[i]);
     }
     if (walls_active_) impose_wall_motion();
     travel_ += std::sqrt(largest_sq);
