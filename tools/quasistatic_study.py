@@ -13,6 +13,8 @@ docs/quasistatic.md (with docs/quasistatic/results.json and plots).
 
 Runs are cached in --work (default ~/.cache/gel-studies/quasistatic): a finished run is never
 run again, and an interrupted one resumes from its checkpoint, so the study can span sessions.
+The finished runs' rows are also kept in docs/quasistatic/results.json, which is committed: a run
+found there is not run again either, so the study goes on across machines whose cache is gone.
 A run that is still missing is listed in the report as missing; nothing is extrapolated.
 
 Only the Python standard library and gnuplot (Debian gnuplot-nox) are used.
@@ -81,7 +83,9 @@ def finished(curve):
     return bool(curve.get("rows")) and curve["rows"][-1]["k"] == steps
 
 
-def run_one(gelsim, work, gel, fidelity, seed):
+def run_one(gelsim, work, gel, fidelity, seed, committed=None):
+    if committed and (gel, fidelity, seed) in committed:
+        return committed[(gel, fidelity, seed)]
     out_dir = os.path.join(work, gel, fidelity, f"seed_{seed}")
     curve_path = os.path.join(out_dir, "curve.json")
     scene = scene_for(gel, fidelity, seed)
@@ -144,8 +148,32 @@ def row_summary(row):
             "z": row["contact_number"], "stored": row["stored_energy"],
             "dissipated": row["dissipated_energy"], "normal": r["normal"], "sliding": r["sliding"],
             "rolling": r["rolling"], "equilibrated": row["equilibrated"], "spans": row.get("spans", True),
-            "residual_force": row.get("residual_force", 0.0), "relax_iterations": row.get("relax_iterations", 0),
-            "steps": row["steps"], "wall_seconds": row["wall_seconds"]}
+            "residual_force": row.get("residual_force", 0.0), "mean_bond_force": row.get("mean_bond_force", 0.0),
+            "relax_iterations": row.get("relax_iterations", 0), "steps": row["steps"], "wall_seconds": row["wall_seconds"]}
+
+
+def row_from_summary(summary):
+    """A curve row rebuilt from its summary in results.json (the fields the report reads)."""
+    row = dict(summary)
+    row["contact_number"] = row.pop("z")
+    row["stored_energy"] = row.pop("stored")
+    row["dissipated_energy"] = row.pop("dissipated")
+    row["ruptures"] = {cause: row.pop(cause) for cause in ("normal", "sliding", "rolling")}
+    row.setdefault("mean_bond_force", None)  # not kept before 2026-12-02: printed as "–"
+    return row
+
+
+def committed_runs():
+    """Finished runs kept in docs/quasistatic/results.json, so that a study goes on from what an
+    earlier machine measured when its cache is gone: {(gel, variant, seed): curve}."""
+    path = os.path.join(ROOT, "docs", "quasistatic", "results.json")
+    if not os.path.exists(path):
+        return {}
+    with open(path) as f:
+        stored = json.load(f)
+    return {(gel, variant, run["seed"]): {"seed": run["seed"], "particles": run["particles"],
+                                          "rows": [row_from_summary(row) for row in run["rows"]]}
+            for gel, variants in stored.items() for variant, runs in variants.items() for run in runs}
 
 
 # --- Report -----------------------------------------------------------------------------------
@@ -322,10 +350,11 @@ def main():
 
     if not args.report_only:
         # Seed-major, so that an interrupted study leaves comparable ensembles of both fidelities.
+        committed = committed_runs()
         tasks = [(gel, fidelity, seed) for gel in gels
                  for seed in range(1, (args.seeds or DEFAULT_SEEDS[gel]) + 1) for fidelity in fidelities]
         with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
-            futures = {pool.submit(run_one, args.gelsim, args.work, *task): task for task in tasks}
+            futures = {pool.submit(run_one, args.gelsim, args.work, *task, committed): task for task in tasks}
             for future in concurrent.futures.as_completed(futures):
                 gel, fidelity, seed = futures[future]
                 try:
@@ -335,11 +364,12 @@ def main():
                     print(f"FAILED {error}", file=sys.stderr, flush=True)
 
     results = {}
+    committed = committed_runs()
     for gel in GELS:
         for fidelity in VARIANTS:
             runs = []
             for seed in range(1, 65):
-                curve = cached(args.work, gel, fidelity, seed)
+                curve = cached(args.work, gel, fidelity, seed) or committed.get((gel, fidelity, seed))
                 if curve:
                     curve["seed"] = seed
                     runs.append(curve)

@@ -11,6 +11,8 @@
 #include "gel/bond_evaluator.hpp"
 #include "gel/errors.hpp"
 #include "gel/units.hpp"
+#include "bond_kernels.hpp"
+#include "integrator_kernels.hpp"
 #include "rotation.hpp"
 
 namespace gel {
@@ -380,65 +382,89 @@ void System::remove_marked_bonds() {
   bond_marked_.clear();
 }
 
+// The exact evaluation of one bond, with its thresholds: the bonds the vectorised chunk flags
+// (a threshold exceeded, a bending angle beyond the series). Returns true when the bond broke
+// (it is marked and contributes no force).
+template <unsigned kMask>
+bool System::bond_force_exact(std::size_t b, double& min_delta) {
+  using Evaluator = BondEvaluator<kMask & kBondEffectBits>;
+  constexpr bool kCheckThresholds = (kMask & kThresholds) != 0;
+  const BondLaw& law = params_.bond;
+  const Bond& bond = bonds_[b];
+  const std::int32_t i = bond.i, j = bond.j;
+  double dx = x_[j] - x_[i], dy = y_[j] - y_[i];
+  if constexpr ((kMask & kShiftBit) != 0) {
+    dx += bond.shift_x;
+    dy += bond.shift_y;
+  }
+  const double r = std::sqrt(dx * dx + dy * dy);
+  const double inv_r = 1.0 / r;
+  BondGeometry g;
+  g.nx = dx * inv_r;
+  g.ny = dy * inv_r;
+  g.delta = r - kDiameter;
+  if constexpr (Evaluator::needs_contact_points()) {
+    to_lab(orient_c_[i], orient_s_[i], bond.bix, bond.biy, g.xi_ix, g.xi_iy);
+    to_lab(orient_c_[j], orient_s_[j], bond.bjx, bond.bjy, g.xi_jx, g.xi_jy);
+  }
+  BondForces f = Evaluator::evaluate(g, law);
+  if constexpr (kCheckThresholds) {
+    const double ft_sq = f.sliding_x * f.sliding_x + f.sliding_y * f.sliding_y;
+    if (f.normal_force > law.f_normal_critical || ft_sq > law.f_sliding_critical * law.f_sliding_critical ||
+        std::abs(f.rolling_moment) > law.m_rolling_critical) {
+      if (handle_threshold(b, f.normal_force, ft_sq, f.rolling_moment, g.nx, g.ny)) return true;
+      f.sliding_x = f.sliding_y = f.rolling_moment = 0.0;
+    }
+  }
+  const double force_x = f.normal_force * g.nx + f.sliding_x;
+  const double force_y = f.normal_force * g.ny + f.sliding_y;
+  fx_[i] += force_x;
+  fy_[i] += force_y;
+  fx_[j] -= force_x;
+  fy_[j] -= force_y;
+  const double sliding_torque = kRadius * (g.nx * f.sliding_y - g.ny * f.sliding_x);
+  torque_[i] += f.rolling_moment + sliding_torque;
+  torque_[j] += -f.rolling_moment + sliding_torque;
+  min_delta = std::min(min_delta, g.delta);
+  return false;
+}
+
+// Chunks of bonds: the arithmetic vectorised into per-bond results (bond_kernels.hpp), then the
+// scatter onto the particles in bond order, so the sums are the same bits as a plain loop.
 template <unsigned kMask>
 void System::bond_forces() {
-  using Evaluator = BondEvaluator<kMask & kBondEffectBits>;
+  constexpr unsigned kEffects = kMask & kBondEffectBits;
   constexpr bool kShift = (kMask & kShiftBit) != 0;
   constexpr bool kCheckThresholds = (kMask & kThresholds) != 0;
   const BondLaw law = params_.bond;
-  const double f_sliding_sq = law.f_sliding_critical * law.f_sliding_critical;
-  const double* __restrict x = x_.data();
-  const double* __restrict y = y_.data();
-  const double* __restrict c = orient_c_.data();
-  const double* __restrict s = orient_s_.data();
   double* __restrict fx = fx_.data();
   double* __restrict fy = fy_.data();
   double* __restrict torque = torque_.data();
   double min_delta = min_delta_;
   bool any_broken = false;
+  if (!bond_chunk_) bond_chunk_ = std::make_unique<detail::BondChunkScratch>();
+  detail::BondChunkForces& chunk = bond_chunk_->forces;
 
   const std::size_t bond_count = bonds_.size();
-  for (std::size_t b = 0; b < bond_count; ++b) {
-    const Bond& bond = bonds_[b];
-    const std::int32_t i = bond.i, j = bond.j;
-    double dx = x[j] - x[i], dy = y[j] - y[i];
-    if constexpr (kShift) {
-      dx += bond.shift_x;
-      dy += bond.shift_y;
-    }
-    const double r = std::sqrt(dx * dx + dy * dy);
-    const double inv_r = 1.0 / r;
-    BondGeometry g;
-    g.nx = dx * inv_r;
-    g.ny = dy * inv_r;
-    g.delta = r - kDiameter;
-    if constexpr (Evaluator::needs_contact_points()) {
-      to_lab(c[i], s[i], bond.bix, bond.biy, g.xi_ix, g.xi_iy);
-      to_lab(c[j], s[j], bond.bjx, bond.bjy, g.xi_jx, g.xi_jy);
-    }
-    BondForces f = Evaluator::evaluate(g, law);
-    if constexpr (kCheckThresholds) {
-      const double ft_sq = f.sliding_x * f.sliding_x + f.sliding_y * f.sliding_y;
-      if (f.normal_force > law.f_normal_critical || ft_sq > f_sliding_sq ||
-          std::abs(f.rolling_moment) > law.m_rolling_critical) [[unlikely]] {
-        if (handle_threshold(b, f.normal_force, ft_sq, f.rolling_moment, g.nx, g.ny)) {
-          any_broken = true;
-          continue;
-        }
-        f.sliding_x = f.sliding_y = f.rolling_moment = 0.0;
+  for (std::size_t begin = 0; begin < bond_count; begin += detail::kBondChunk) {
+    const std::size_t count = std::min(detail::kBondChunk, bond_count - begin);
+    detail::bond_chunk_forces<kEffects, kShift, kCheckThresholds>(bonds_.data() + begin, count, x_.data(), y_.data(),
+                                                                  orient_c_.data(), orient_s_.data(), law,
+                                                                  bond_chunk_->inputs, chunk);
+    for (std::size_t k = 0; k < count; ++k) {
+      if (chunk.exact[k]) [[unlikely]] {
+        any_broken |= bond_force_exact<kMask>(begin + k, min_delta);
+        continue;
       }
+      const Bond& bond = bonds_[begin + k];
+      fx[bond.i] += chunk.force_x[k];
+      fy[bond.i] += chunk.force_y[k];
+      fx[bond.j] -= chunk.force_x[k];
+      fy[bond.j] -= chunk.force_y[k];
+      torque[bond.i] += chunk.torque_i[k];
+      torque[bond.j] += chunk.torque_j[k];
+      min_delta = std::min(min_delta, chunk.delta[k]);
     }
-    const double force_x = f.normal_force * g.nx + f.sliding_x;
-    const double force_y = f.normal_force * g.ny + f.sliding_y;
-    fx[i] += force_x;
-    fy[i] += force_y;
-    fx[j] -= force_x;
-    fy[j] -= force_y;
-    // a n x F_T acts on both particles (on j: (-a n) x (-F_T)).
-    const double sliding_torque = kRadius * (g.nx * f.sliding_y - g.ny * f.sliding_x);
-    torque[i] += f.rolling_moment + sliding_torque;
-    torque[j] += -f.rolling_moment + sliding_torque;
-    min_delta = std::min(min_delta, g.delta);
   }
   min_delta_ = min_delta;
   if (any_broken) remove_marked_bonds();
@@ -536,87 +562,27 @@ void System::attach_to_walls() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Integration: velocity Verlet with Stokes drag. The first half kick takes the drag
-// explicitly, the second implicitly ((v + h F)/(1 + h gamma)), which keeps the scheme second
-// order and stable for any drag.
+// Integration: velocity Verlet with Stokes drag (the loops are in integrator_kernels.hpp).
+
+detail::KickCoefficients System::kick_coefficients() const {
+  const double dt = params_.dt;
+  return {dt, 0.5 * dt / kMass, 0.5 * dt / kInertia, params_.drag_translation(), params_.drag_rotation()};
+}
 
 template <bool kDragOn>
 void System::first_half_kick_and_drift() {
-  const std::size_t n = size();
-  const double dt = params_.dt;
-  const double h = 0.5 * dt / kMass, h_rot = 0.5 * dt / kInertia;
-  const double gamma = params_.drag_translation(), gamma_rot = params_.drag_rotation();
-  double* __restrict x = x_.data();
-  double* __restrict y = y_.data();
-  double* __restrict c = orient_c_.data();
-  double* __restrict s = orient_s_.data();
-  double* __restrict vx = vx_.data();
-  double* __restrict vy = vy_.data();
-  double* __restrict omega = omega_.data();
-  const double* __restrict fx = fx_.data();
-  const double* __restrict fy = fy_.data();
-  const double* __restrict torque = torque_.data();
-  double max_speed_sq = 0, drag_power = 0;
-  // The reductions would otherwise keep the loop scalar; the simd order is fixed at compile
-  // time, so runs stay reproducible.
-#pragma omp simd reduction(+ : drag_power) reduction(max : max_speed_sq)
-  for (std::size_t i = 0; i < n; ++i) {
-    double vxi = vx[i], vyi = vy[i], wi = omega[i];
-    if constexpr (kDragOn) {
-      drag_power += gamma * (vxi * vxi + vyi * vyi) + gamma_rot * wi * wi;
-      vxi += h * (fx[i] - gamma * vxi);
-      vyi += h * (fy[i] - gamma * vyi);
-      wi += h_rot * (torque[i] - gamma_rot * wi);
-    } else {
-      vxi += h * fx[i];
-      vyi += h * fy[i];
-      wi += h_rot * torque[i];
-    }
-    vx[i] = vxi;
-    vy[i] = vyi;
-    omega[i] = wi;
-    x[i] += dt * vxi;
-    y[i] += dt * vyi;
-    rotate_small(c[i], s[i], wi * dt);
-    const double linear_sq = vxi * vxi + vyi * vyi, angular_sq = kRadius * kRadius * wi * wi;
-    const double speed_sq = linear_sq > angular_sq ? linear_sq : angular_sq;
-    max_speed_sq = speed_sq > max_speed_sq ? speed_sq : max_speed_sq;
-  }
-  max_speed_sq_ = max_speed_sq;
-  if constexpr (kDragOn) ledger_.drag += 0.5 * dt * drag_power;
+  const detail::KickTotals totals = detail::kick_and_drift<kDragOn>(
+      size(), kick_coefficients(), x_.data(), y_.data(), orient_c_.data(), orient_s_.data(), vx_.data(), vy_.data(),
+      omega_.data(), fx_.data(), fy_.data(), torque_.data());
+  max_speed_sq_ = totals.max_speed_sq;
+  if constexpr (kDragOn) ledger_.drag += 0.5 * params_.dt * totals.drag_power;
 }
 
 template <bool kDragOn>
 void System::second_half_kick() {
-  const std::size_t n = size();
-  const double dt = params_.dt;
-  const double h = 0.5 * dt / kMass, h_rot = 0.5 * dt / kInertia;
-  const double gamma = params_.drag_translation(), gamma_rot = params_.drag_rotation();
-  const double damp = 1.0 / (1.0 + h * gamma), damp_rot = 1.0 / (1.0 + h_rot * gamma_rot);
-  double* __restrict vx = vx_.data();
-  double* __restrict vy = vy_.data();
-  double* __restrict omega = omega_.data();
-  const double* __restrict fx = fx_.data();
-  const double* __restrict fy = fy_.data();
-  const double* __restrict torque = torque_.data();
-  double drag_power = 0;
-#pragma omp simd reduction(+ : drag_power)
-  for (std::size_t i = 0; i < n; ++i) {
-    if constexpr (kDragOn) {
-      const double vxi = (vx[i] + h * fx[i]) * damp;
-      const double vyi = (vy[i] + h * fy[i]) * damp;
-      const double wi = (omega[i] + h_rot * torque[i]) * damp_rot;
-      vx[i] = vxi;
-      vy[i] = vyi;
-      omega[i] = wi;
-      drag_power += gamma * (vxi * vxi + vyi * vyi) + gamma_rot * wi * wi;
-    } else {
-      vx[i] += h * fx[i];
-      vy[i] += h * fy[i];
-      omega[i] += h_rot * torque[i];
-    }
-  }
-  if constexpr (kDragOn) ledger_.drag += 0.5 * dt * drag_power;
+  const double drag_power = detail::second_kick<kDragOn>(size(), kick_coefficients(), vx_.data(), vy_.data(),
+                                                         omega_.data(), fx_.data(), fy_.data(), torque_.data());
+  if constexpr (kDragOn) ledger_.drag += 0.5 * params_.dt * drag_power;
 }
 
 void System::step() {

@@ -30,20 +30,24 @@ struct BondForces {
 };
 
 // Bending angle phi = -asin((xi_ij x xi_ji)_z). A bond resets at |phi| > phi_c (0.05 in
-// both presets), so the argument almost always stays below 0.0625, where the odd series
-// through x^11 is exact to 1e-16 relative (the next term is 0.017 x^13); it is evaluated in
-// Estrin form because its Horner chain was the longest latency in the bond loop.
+// both presets), so the argument almost always stays below kBendingSeriesLimit = 0.0625, where
+// the odd series through x^11 is exact to 1e-16 relative (the next term is 0.017 x^13); it is
+// evaluated in Estrin form because its Horner chain was the longest latency in the bond loop.
 // std::asin remains the fallback for larger angles.
-inline double bending_angle(double cross_z) {
+inline constexpr double kBendingSeriesLimit = 0.0625;
+
+inline double bending_angle_series(double cross_z) {
   const double x = cross_z;
-  if (std::abs(x) < 0.0625) {
-    const double t = x * x, t2 = t * t, t4 = t2 * t2;
-    const double low = 1.0 + t * (1.0 / 6);
-    const double mid = 3.0 / 40 + t * (5.0 / 112);
-    const double high = 35.0 / 1152 + t * (63.0 / 2816);
-    return -x * (low + t2 * mid + t4 * high);
-  }
-  return -std::asin(x);
+  const double t = x * x, t2 = t * t, t4 = t2 * t2;
+  const double low = 1.0 + t * (1.0 / 6);
+  const double mid = 3.0 / 40 + t * (5.0 / 112);
+  const double high = 35.0 / 1152 + t * (63.0 / 2816);
+  return -x * (low + t2 * mid + t4 * high);
+}
+
+inline double bending_angle(double cross_z) {
+  if (std::abs(cross_z) < kBendingSeriesLimit) return bending_angle_series(cross_z);
+  return -std::asin(cross_z);
 }
 
 template <unsigned kEffects>
@@ -55,6 +59,10 @@ struct BondEvaluator {
   // The contact points are only needed by the tangential springs.
   static constexpr bool needs_contact_points() { return needs_sliding() || needs_rolling(); }
 
+  // kSeriesOnly: the bending angle from its series alone, without a branch, so that the bond
+  // loop vectorises; valid while |cross| < kBendingSeriesLimit (rolling_cross tells), and the
+  // loop takes the exact evaluation for the other bonds. Both give the same bits below the limit.
+  template <bool kSeriesOnly = false>
   static BondForces evaluate(const BondGeometry& g, const BondLaw& law) {
     BondForces out;
     if constexpr (needs_normal()) out.normal_force = law.k_normal * g.delta;
@@ -71,11 +79,14 @@ struct BondEvaluator {
       out.sliding_y = law.k_sliding * kRadius * (uy - u_n * g.ny);
     }
     if constexpr (needs_rolling()) {
-      const double cross = g.xi_ix * g.xi_jy - g.xi_iy * g.xi_jx;
-      out.rolling_moment = law.k_rolling * bending_angle(cross);
+      const double cross = rolling_cross(g);
+      out.rolling_moment = law.k_rolling * (kSeriesOnly ? bending_angle_series(cross) : bending_angle(cross));
     }
     return out;
   }
+
+  // (xi_ij x xi_ji)_z, the sine of the bending angle.
+  static double rolling_cross(const BondGeometry& g) { return g.xi_ix * g.xi_jy - g.xi_iy * g.xi_jx; }
 };
 
 // The evaluator for an effect set known only at run time (bookkeeping and checks, not the

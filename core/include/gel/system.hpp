@@ -5,6 +5,7 @@
 // the bookkeeping.
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,11 @@
 #include "gel/v1/scene.pb.h"
 
 namespace gel {
+
+namespace detail {
+struct KickCoefficients;
+struct BondChunkScratch;
+}
 
 struct SimParams {
   BondLaw bond;
@@ -195,6 +201,9 @@ class System {
  private:
   template <unsigned kBondMask>
   void bond_forces();
+  template <unsigned kBondMask>
+  bool bond_force_exact(std::size_t b, double& min_delta);
+  detail::KickCoefficients kick_coefficients() const;
   template <bool kDragOn>
   void first_half_kick_and_drift();
   template <bool kDragOn>
@@ -225,6 +234,7 @@ class System {
   std::vector<std::int8_t> wall_;  // WallSide per particle; empty until walls exist
   std::vector<Bond> bonds_;
   std::vector<std::uint8_t> bond_marked_;  // scratch: bonds broken this step
+  std::unique_ptr<detail::BondChunkScratch> bond_chunk_;  // scratch of the bond loop
 
   struct Candidate {
     std::int32_t i, j;
