@@ -7,6 +7,7 @@
 // series) stay scalar in System::bond_forces.
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "gel/bond_evaluator.hpp"
 #include "gel/system.hpp"
@@ -27,43 +28,56 @@ struct BondChunkForces {
   std::uint8_t exact[kBondChunk];  // 1: this bond takes the exact scalar path instead
 };
 
-// The chunk's bonds transposed into arrays: GCC vectorises gathers whose indices come from an
-// array, not from a field of an array of structs.
-struct BondChunkInputs {
-  std::int32_t i[kBondChunk], j[kBondChunk];
-  double bix[kBondChunk], biy[kBondChunk], bjx[kBondChunk], bjy[kBondChunk];
-  double shift_x[kBondChunk], shift_y[kBondChunk];
+// The bonds as arrays, a mirror of System::bonds_ kept by the loop: GCC vectorises gathers whose
+// indices come from an array, not from a field of an array of structs.
+struct BondArrays {
+  std::vector<std::int32_t> i, j;
+  std::vector<double> bix, biy, bjx, bjy;
+  std::vector<double> shift_x, shift_y;
+  bool valid = false;  // false: rebuilt from bonds_ before the next use
+
+  void assign(const std::vector<Bond>& bonds) {
+    const std::size_t n = bonds.size();
+    for (auto* column : {&bix, &biy, &bjx, &bjy, &shift_x, &shift_y}) column->resize(n);
+    i.resize(n);
+    j.resize(n);
+    for (std::size_t b = 0; b < n; ++b) set(b, bonds[b]);
+    valid = true;
+  }
+  void set(std::size_t b, const Bond& bond) {
+    i[b] = bond.i;
+    j[b] = bond.j;
+    bix[b] = bond.bix;
+    biy[b] = bond.biy;
+    bjx[b] = bond.bjx;
+    bjy[b] = bond.bjy;
+    shift_x[b] = bond.shift_x;
+    shift_y[b] = bond.shift_y;
+  }
 };
 
-// Bonds [0, count) of `bonds` (count <= kBondChunk).
+// Bonds [begin, begin + count) (count <= kBondChunk).
 template <unsigned kEffects, bool kShift, bool kCheckThresholds>
-GEL_SIMD_CLONES void bond_chunk_forces(const Bond* __restrict bonds, std::size_t count, const double* __restrict x,
-                                       const double* __restrict y, const double* __restrict c,
-                                       const double* __restrict s, const BondLaw& law,
-                                       BondChunkInputs& __restrict in, BondChunkForces& __restrict out) {
+GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begin, std::size_t count,
+                                       const double* __restrict x, const double* __restrict y,
+                                       const double* __restrict c, const double* __restrict s, const BondLaw& law,
+                                       BondChunkForces& __restrict out) {
   using Evaluator = BondEvaluator<kEffects>;
-  for (std::size_t k = 0; k < count; ++k) {
-    const Bond& bond = bonds[k];
-    in.i[k] = bond.i;
-    in.j[k] = bond.j;
-    if constexpr (Evaluator::needs_contact_points()) {
-      in.bix[k] = bond.bix;
-      in.biy[k] = bond.biy;
-      in.bjx[k] = bond.bjx;
-      in.bjy[k] = bond.bjy;
-    }
-    if constexpr (kShift) {
-      in.shift_x[k] = bond.shift_x;
-      in.shift_y[k] = bond.shift_y;
-    }
-  }
+  const std::int32_t* __restrict bond_i = bonds.i.data() + begin;
+  const std::int32_t* __restrict bond_j = bonds.j.data() + begin;
+  const double* __restrict bix = bonds.bix.data() + begin;
+  const double* __restrict biy = bonds.biy.data() + begin;
+  const double* __restrict bjx = bonds.bjx.data() + begin;
+  const double* __restrict bjy = bonds.bjy.data() + begin;
+  const double* __restrict shift_x = bonds.shift_x.data() + begin;
+  const double* __restrict shift_y = bonds.shift_y.data() + begin;
   const double f_sliding_sq = law.f_sliding_critical * law.f_sliding_critical;
   for (std::size_t k = 0; k < count; ++k) {
-    const std::int32_t i = in.i[k], j = in.j[k];
+    const std::int32_t i = bond_i[k], j = bond_j[k];
     double dx = x[j] - x[i], dy = y[j] - y[i];
     if constexpr (kShift) {
-      dx += in.shift_x[k];
-      dy += in.shift_y[k];
+      dx += shift_x[k];
+      dy += shift_y[k];
     }
     const double r = std::sqrt(dx * dx + dy * dy);
     const double inv_r = 1.0 / r;
@@ -73,10 +87,10 @@ GEL_SIMD_CLONES void bond_chunk_forces(const Bond* __restrict bonds, std::size_t
     g.delta = r - kDiameter;
     bool exact = false;
     if constexpr (Evaluator::needs_contact_points()) {
-      g.xi_ix = c[i] * in.bix[k] - s[i] * in.biy[k];
-      g.xi_iy = s[i] * in.bix[k] + c[i] * in.biy[k];
-      g.xi_jx = c[j] * in.bjx[k] - s[j] * in.bjy[k];
-      g.xi_jy = s[j] * in.bjx[k] + c[j] * in.bjy[k];
+      g.xi_ix = c[i] * bix[k] - s[i] * biy[k];
+      g.xi_iy = s[i] * bix[k] + c[i] * biy[k];
+      g.xi_jx = c[j] * bjx[k] - s[j] * bjy[k];
+      g.xi_jy = s[j] * bjx[k] + c[j] * bjy[k];
     }
     if constexpr (Evaluator::needs_rolling()) exact = std::abs(Evaluator::rolling_cross(g)) >= kBendingSeriesLimit;
     const BondForces f = Evaluator::template evaluate<true>(g, law);
@@ -97,7 +111,7 @@ GEL_SIMD_CLONES void bond_chunk_forces(const Bond* __restrict bonds, std::size_t
 }
 
 struct BondChunkScratch {
-  BondChunkInputs inputs;
+  BondArrays bonds;
   BondChunkForces forces;
 };
 

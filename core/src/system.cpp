@@ -80,7 +80,8 @@ System::~System() = default;
 System::System(System&&) noexcept = default;
 System& System::operator=(System&&) noexcept = default;
 
-System::System(const Configuration& config, const SimParams& params) : params_(params) {
+System::System(const Configuration& config, const SimParams& params)
+    : params_(params), bond_scratch_(std::make_unique<detail::BondChunkScratch>()) {
   const std::size_t n = config.size();
   if (n == 0) throw InvalidArgument("configuration", "no particles");
   if (!(params_.dt > 0)) params_.dt = params_.dt_fraction * shortest_period(params_.bond);
@@ -170,6 +171,7 @@ void System::rebuild_neighbours() {
     bond.shift_x = periodic_x_ ? -lx_ * std::round((x_[bond.j] - x_[bond.i]) / lx_) : 0.0;
     bond.shift_y = periodic_y_ ? -ly_ * std::round((y_[bond.j] - y_[bond.i]) / ly_) : 0.0;
   }
+  bond_scratch_->bonds.valid = false;
 
   // Bonded partners, to leave bonded pairs out of the candidates.
   std::vector<std::int32_t> degree(n + 1, 0);
@@ -302,6 +304,7 @@ void System::create_bond(std::int32_t i, std::int32_t j, double shift_x, double 
   to_body(orient_c_[i], orient_s_[i], nx, ny, bond.bix, bond.biy);
   to_body(orient_c_[j], orient_s_[j], -nx, -ny, bond.bjx, bond.bjy);
   bonds_.push_back(bond);
+  bond_scratch_->bonds.valid = false;
   ++events_.created;
   // The bond forms at delta <= 0 (the step overshoots contact by at most v dt), so it
   // starts with a little normal energy; the ledger keeps it to close the energy balance.
@@ -366,6 +369,7 @@ bool System::handle_threshold(std::size_t b, double fn, double ft_sq, double mom
   ledger_.dissipated += energy.sliding + energy.rolling;
   to_body(orient_c_[bond.i], orient_s_[bond.i], nx, ny, bond.bix, bond.biy);
   to_body(orient_c_[bond.j], orient_s_[bond.j], -nx, -ny, bond.bjx, bond.bjy);
+  if (bond_scratch_->bonds.valid) bond_scratch_->bonds.set(b, bond);
   return false;
 }
 
@@ -380,6 +384,7 @@ void System::remove_marked_bonds() {
     bonds_.pop_back();
   }
   bond_marked_.clear();
+  bond_scratch_->bonds.valid = false;
 }
 
 // The exact evaluation of one bond, with its thresholds: the bonds the vectorised chunk flags
@@ -442,15 +447,15 @@ void System::bond_forces() {
   double* __restrict torque = torque_.data();
   double min_delta = min_delta_;
   bool any_broken = false;
-  if (!bond_chunk_) bond_chunk_ = std::make_unique<detail::BondChunkScratch>();
-  detail::BondChunkForces& chunk = bond_chunk_->forces;
+  detail::BondChunkForces& chunk = bond_scratch_->forces;
+  detail::BondArrays& arrays = bond_scratch_->bonds;
+  if (!arrays.valid) arrays.assign(bonds_);
 
   const std::size_t bond_count = bonds_.size();
   for (std::size_t begin = 0; begin < bond_count; begin += detail::kBondChunk) {
     const std::size_t count = std::min(detail::kBondChunk, bond_count - begin);
-    detail::bond_chunk_forces<kEffects, kShift, kCheckThresholds>(bonds_.data() + begin, count, x_.data(), y_.data(),
-                                                                  orient_c_.data(), orient_s_.data(), law,
-                                                                  bond_chunk_->inputs, chunk);
+    detail::bond_chunk_forces<kEffects, kShift, kCheckThresholds>(arrays, begin, count, x_.data(), y_.data(),
+                                                                  orient_c_.data(), orient_s_.data(), law, chunk);
     for (std::size_t k = 0; k < count; ++k) {
       if (chunk.exact[k]) [[unlikely]] {
         any_broken |= bond_force_exact<kMask>(begin + k, min_delta);
@@ -742,6 +747,7 @@ void System::install_walls() {
       ledger_.dissipated += bond_energy(bonds_[b]);
       bonds_[b] = bonds_.back();
       bonds_.pop_back();
+      bond_scratch_->bonds.valid = false;
     }
   }
   periodic_y_ = false;

@@ -7,6 +7,8 @@
 
 #include "gel/system.hpp"
 
+#include "bond_kernels.hpp"
+
 namespace gel {
 namespace {
 
@@ -139,6 +141,7 @@ System System::load_state(const std::string& bytes) {
     r.get_vector(*v);
   r.get_vector(s.wall_);
   r.get_vector(s.bonds_);
+  s.bond_scratch_->bonds.valid = false;
   r.get_vector(s.candidates_);
   r.get_vector(s.wall_candidates_);
   s.travel_ = r.get<double>();

@@ -234,7 +234,9 @@ class System {
   std::vector<std::int8_t> wall_;  // WallSide per particle; empty until walls exist
   std::vector<Bond> bonds_;
   std::vector<std::uint8_t> bond_marked_;  // scratch: bonds broken this step
-  std::unique_ptr<detail::BondChunkScratch> bond_chunk_;  // scratch of the bond loop
+  // The bond loop's scratch: its mirror of bonds_ as arrays (invalidated by every change of
+  // bonds_) and one chunk's forces. Never part of the saved state.
+  std::unique_ptr<detail::BondChunkScratch> bond_scratch_;
 
   struct Candidate {
     std::int32_t i, j;
