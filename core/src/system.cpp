@@ -445,7 +445,8 @@ void System::bond_forces() {
   double* __restrict fx = fx_.data();
   double* __restrict fy = fy_.data();
   double* __restrict torque = torque_.data();
-  double min_delta = min_delta_;
+  // Two minima, so that the one of the common path is not address-taken and stays in a register.
+  double min_delta = min_delta_, exact_min_delta = min_delta_;
   bool any_broken = false;
   detail::BondChunkForces& chunk = bond_scratch_->forces;
   detail::BondArrays& arrays = bond_scratch_->bonds;
@@ -456,22 +457,24 @@ void System::bond_forces() {
     const std::size_t count = std::min(detail::kBondChunk, bond_count - begin);
     detail::bond_chunk_forces<kEffects, kShift, kCheckThresholds>(arrays, begin, count, x_.data(), y_.data(),
                                                                   orient_c_.data(), orient_s_.data(), law, chunk);
+    const std::int32_t* bond_i = arrays.i.data() + begin;
+    const std::int32_t* bond_j = arrays.j.data() + begin;
     for (std::size_t k = 0; k < count; ++k) {
       if (chunk.exact[k]) [[unlikely]] {
-        any_broken |= bond_force_exact<kMask>(begin + k, min_delta);
+        any_broken |= bond_force_exact<kMask>(begin + k, exact_min_delta);
         continue;
       }
-      const Bond& bond = bonds_[begin + k];
-      fx[bond.i] += chunk.force_x[k];
-      fy[bond.i] += chunk.force_y[k];
-      fx[bond.j] -= chunk.force_x[k];
-      fy[bond.j] -= chunk.force_y[k];
-      torque[bond.i] += chunk.torque_i[k];
-      torque[bond.j] += chunk.torque_j[k];
+      const std::int32_t i = bond_i[k], j = bond_j[k];
+      fx[i] += chunk.force_x[k];
+      fy[i] += chunk.force_y[k];
+      fx[j] -= chunk.force_x[k];
+      fy[j] -= chunk.force_y[k];
+      torque[i] += chunk.torque_i[k];
+      torque[j] += chunk.torque_j[k];
       min_delta = std::min(min_delta, chunk.delta[k]);
     }
   }
-  min_delta_ = min_delta;
+  min_delta_ = std::min(min_delta, exact_min_delta);
   if (any_broken) remove_marked_bonds();
 }
 
