@@ -2,19 +2,26 @@
 //   gelsim compress --preset quick
 //   gelsim compress --preset paper-bond1 --seed 1 --fidelity default --out runs/b1 --progress-file runs/b1/progress.jsonl
 //   gelsim compress --resume runs/b1
+//   gelsim compress --preset quick --seeds 1-8 --jobs 2 --out runs/ens   (an ensemble, members in parallel)
 // Progress goes to stderr (a bar on a terminal, plain lines otherwise), the curve to stdout.
 // Exit codes: 0 done, 2 invalid input, 3 numerical instability, 4 stopped by a signal
 // (checkpointed: resume with --resume DIR).
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -52,6 +59,9 @@ struct CompressArgs {
   std::string exam_ruptures, approach;
   double strain_step = 0, relax_tolerance = 0, relax_floor = 0, relax_dt_max = 0;
   std::int64_t relax_max_iterations = 0;
+  // Ensemble: members by seed, `jobs` at a time, each in out/seed_<seed>.
+  std::string seeds;
+  int jobs = 1;
 };
 
 gel::v1::Scene build_scene(const CompressArgs& args) {
@@ -101,13 +111,16 @@ class ProgressFile {
   }
   void write(const nlohmann::json& line) {
     if (!out_.is_open()) return;
-    out_ << line.dump() << '\n';
+    const std::string text = line.dump() + '\n';
+    std::lock_guard lock(mutex_);  // ensemble members write from their own threads
+    out_ << text;
     out_.flush();
   }
   bool open() const { return out_.is_open(); }
 
  private:
   std::ofstream out_;
+  std::mutex mutex_;
 };
 
 nlohmann::json events_json(const gel::v1::Events& e) {
@@ -165,7 +178,200 @@ void print_table(const gel::v1::Curve& curve) {
                 static_cast<long long>(curve.rows(curve.rows_size() - 1).steps()), curve.particles());
 }
 
+// --- Ensembles: --seeds 1-10 --jobs N ------------------------------------------------------
+
+// "1-10", "1,3,7-9": the seeds in the order given, each once.
+std::vector<std::uint64_t> parse_seeds(const std::string& text) {
+  std::vector<std::uint64_t> seeds;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    const std::size_t dash = item.find('-');
+    try {
+      std::size_t used = 0;
+      const std::uint64_t first = std::stoull(item.substr(0, dash), &used);
+      if (used != item.substr(0, dash).size()) throw std::invalid_argument("trailing characters");
+      std::uint64_t last = first;
+      if (dash != std::string::npos) {
+        last = std::stoull(item.substr(dash + 1), &used);
+        if (used != item.size() - dash - 1) throw std::invalid_argument("trailing characters");
+      }
+      if (last < first) throw gel::InvalidArgument("--seeds", "range '" + item + "' runs backwards");
+      if (last - first >= 10000 || seeds.size() + (last - first) >= 10000)
+        throw gel::InvalidArgument("--seeds", "more than 10000 seeds");
+      for (std::uint64_t seed = first; seed <= last; ++seed)
+        if (std::find(seeds.begin(), seeds.end(), seed) == seeds.end()) seeds.push_back(seed);
+    } catch (const std::logic_error&) {
+      throw gel::InvalidArgument("--seeds", "'" + item + "' is not a seed or a range A-B (e.g. --seeds 1-10 or 1,4,7-9)");
+    }
+    start = comma + 1;
+  }
+  return seeds;
+}
+
+std::string member_dir(const std::string& out, std::uint64_t seed) {
+  return (std::filesystem::path(out) / ("seed_" + std::to_string(seed))).string();
+}
+
+struct MemberOutcome {
+  std::uint64_t seed = 0;
+  gel::CompressionResult result;
+  int exit_code = 0;  // as a single run's
+  std::string error;
+};
+
+// Mean, standard deviation and equilibrated count of P per target over the members that reached
+// it (the full analysis of an ensemble is `gelsim analyze-run OUT/seed_*`).
+nlohmann::json ensemble_summary(const std::vector<MemberOutcome>& members) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int k = 0;; ++k) {
+    std::vector<const gel::v1::CurveRow*> at_k;
+    for (const auto& m : members)
+      if (k < m.result.curve.rows_size()) at_k.push_back(&m.result.curve.rows(k));
+    if (at_k.empty()) break;
+    double phi = 0, mean = 0, sq = 0;
+    int equilibrated = 0;
+    for (const auto* row : at_k) {
+      phi += row->phi();
+      mean += row->p();
+      equilibrated += row->equilibrated() ? 1 : 0;
+    }
+    const double n = static_cast<double>(at_k.size());
+    phi /= n;
+    mean /= n;
+    for (const auto* row : at_k) sq += (row->p() - mean) * (row->p() - mean);
+    rows.push_back({{"k", k}, {"phi", phi}, {"P_mean", mean}, {"P_std", at_k.size() > 1 ? std::sqrt(sq / (n - 1)) : 0.0},
+                    {"members", at_k.size()}, {"equilibrated", equilibrated}});
+  }
+  return rows;
+}
+
+int run_ensemble(const CompressArgs& args) {
+  const bool resuming = args.resume.has_value();
+  const std::string out = resuming ? (args.resume->empty() ? args.out : *args.resume) : args.out;
+  if (out.empty()) throw gel::InvalidArgument("--out", "an ensemble needs a directory (--out DIR): each member runs in DIR/seed_<seed>");
+  if (args.jobs < 0) throw gel::InvalidArgument("--jobs", "must be 0 (one per core) or positive");
+  const std::filesystem::path manifest = std::filesystem::path(out) / "ensemble.json";
+  std::vector<std::uint64_t> seeds;
+  gel::v1::Scene scene;
+  if (resuming) {
+    const nlohmann::json stored = nlohmann::json::parse(gel::read_file(manifest.string()));
+    seeds = stored.at("seeds").get<std::vector<std::uint64_t>>();
+  } else {
+    seeds = parse_seeds(args.seeds);
+    scene = gel::resolve_compression_scene(build_scene(args));  // invalid input fails before any member starts
+    std::filesystem::create_directories(out);
+    std::ofstream(manifest) << nlohmann::json{{"seeds", seeds}, {"scene", nlohmann::json::parse(gel::scene_to_json(scene))}}.dump(1)
+                            << "\n";
+  }
+  const int jobs = std::min<int>(static_cast<int>(seeds.size()),
+                                 args.jobs > 0 ? args.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+
+  ProgressFile progress_file(args.progress_file);
+  std::signal(SIGINT, request_stop);
+  std::signal(SIGTERM, request_stop);
+  std::mutex print_mutex;
+  auto print = [&](const std::string& line) {
+    std::lock_guard lock(print_mutex);
+    std::cerr << line << '\n';
+  };
+  print("ensemble of " + std::to_string(seeds.size()) + " members, " + std::to_string(jobs) + " at a time, in " + out);
+
+  std::vector<MemberOutcome> outcomes(seeds.size());
+  std::atomic<std::size_t> next{0};
+  auto worker = [&] {
+    for (std::size_t index = next++; index < seeds.size(); index = next++) {
+      MemberOutcome& outcome = outcomes[index];
+      const std::uint64_t seed = outcome.seed = seeds[index];
+      const std::string prefix = "[seed " + std::to_string(seed) + "] ";
+      gel::RunOptions options;
+      options.out_dir = member_dir(out, seed);
+      options.stop = &g_stop;
+      options.progress_interval_seconds = std::max(args.progress_interval, 1.0);
+      options.write_snapshots = !args.no_snapshots;
+      options.on_progress = [&, seed, prefix](const gel::v1::Progress& p) {
+        nlohmann::json line = progress_json(p);
+        line["seed"] = seed;
+        progress_file.write(line);
+        print(prefix + progress_text(p));
+      };
+      options.on_row = [&, seed, prefix](const gel::v1::CurveRow& row) {
+        nlohmann::json line = gel::curve_row_to_json(row);
+        line["type"] = "row";
+        line["seed"] = seed;
+        progress_file.write(line);
+        print(prefix + "equilibrium k " + std::to_string(row.k()) + ": phi " + std::to_string(row.phi()) + "  P " +
+              std::to_string(row.p()) + (row.equilibrated() ? "" : "  (NOT equilibrated)"));
+      };
+      try {
+        if (gel::has_checkpoint(options.out_dir)) {
+          outcome.result = gel::resume_compression(options);
+        } else {
+          gel::v1::Scene member_scene = resuming ? gel::scene_from_json(nlohmann::json::parse(gel::read_file(manifest.string())).at("scene").dump())
+                                                 : scene;
+          member_scene.mutable_generator()->set_seed(seed);
+          std::filesystem::create_directories(options.out_dir);
+          outcome.result = gel::run_compression(member_scene, options);
+        }
+        if (outcome.result.stopped) outcome.exit_code = 4;
+      } catch (const gel::InvalidArgument& e) {
+        outcome.exit_code = 2;
+        outcome.error = e.what();
+      } catch (const gel::StabilityError& e) {
+        outcome.exit_code = 3;
+        outcome.error = e.what();
+      } catch (const std::exception& e) {
+        outcome.exit_code = 1;
+        outcome.error = e.what();
+      }
+      if (!outcome.error.empty()) {
+        progress_file.write({{"type", "failed"}, {"seed", seed}, {"error", outcome.error}});
+        print(prefix + "failed: " + outcome.error);
+      } else if (outcome.result.finished) {
+        progress_file.write({{"type", "done"}, {"seed", seed}, {"out", options.out_dir}, {"rows", outcome.result.curve.rows_size()}});
+        print(prefix + "done");
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int t = 0; t < jobs; ++t) threads.emplace_back(worker);
+  for (auto& thread : threads) thread.join();
+
+  int exit_code = 0;
+  for (const auto& outcome : outcomes) exit_code = std::max(exit_code, outcome.exit_code);
+  if (std::any_of(outcomes.begin(), outcomes.end(), [](const MemberOutcome& m) { return m.exit_code == 4; })) {
+    progress_file.write({{"type", "stopped"}, {"out", out}});
+    std::cerr << "gelsim: stopped; resume with --resume " << out << "\n";
+    return 4;
+  }
+  const nlohmann::json summary = ensemble_summary(outcomes);
+  if (args.json) {
+    nlohmann::json members = nlohmann::json::array();
+    for (const auto& m : outcomes)
+      members.push_back({{"seed", m.seed}, {"error", m.error}, {"curve", gel::curve_to_json(m.result.curve)}});
+    std::cout << nlohmann::json{{"seeds", seeds}, {"summary", summary}, {"members", members}}.dump() << "\n";
+  } else {
+    std::printf("%3s %9s %12s %12s %8s %4s\n", "k", "phi", "P_mean[P0]", "P_std", "members", "eq");
+    for (const auto& row : summary)
+      std::printf("%3d %9.5f %12.5e %12.5e %8d %4d\n", row["k"].get<int>(), row["phi"].get<double>(),
+                  row["P_mean"].get<double>(), row["P_std"].get<double>(), row["members"].get<int>(),
+                  row["equilibrated"].get<int>());
+    std::printf("members in %s/seed_<seed>; full analysis: gelsim analyze-run %s/seed_*\n", out.c_str(), out.c_str());
+  }
+  return exit_code;
+}
+
 int run_compress(const CompressArgs& args) {
+  if (!args.seeds.empty()) {
+    if (args.seed) throw gel::InvalidArgument("--seeds", "give --seed (one run) or --seeds (an ensemble), not both");
+    if (!args.config_file.empty()) throw gel::InvalidArgument("--seeds", "an ensemble generates its gels: --config is for one run");
+    return run_ensemble(args);
+  }
+  if (args.resume) {
+    const std::string dir = args.resume->empty() ? args.out : *args.resume;
+    if (!dir.empty() && std::filesystem::exists(std::filesystem::path(dir) / "ensemble.json")) return run_ensemble(args);
+  }
   ProgressFile progress_file(args.progress_file);
   const bool terminal = isatty(STDERR_FILENO) != 0;
   std::signal(SIGINT, request_stop);
@@ -235,6 +441,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--config", args->config_file, "start from this configuration instead of generating a gel");
   sub.add_option("--bond", args->bond, "bond preset: bond1, bond2");
   sub.add_option("--seed", args->seed, "generator seed");
+  sub.add_option("--seeds", args->seeds, "an ensemble: seeds 1-10 or 1,4,7-9, each member in OUT/seed_<seed>");
+  sub.add_option("--jobs", args->jobs, "ensemble members run at a time (0: one per core; default 1)")->check(CLI::NonNegativeNumber);
   sub.add_option("--fidelity", args->fidelity, "fast, default, paper (MODEL.md reference values) or quasistatic (FIRE relaxation)");
   sub.add_option("--out", args->out, "run directory: curve.json/csv, profiles.csv, snapshots/, checkpoint.bin");
   sub.add_option("--resume", args->resume, "continue the run in DIR (default: --out) from its checkpoint")->expected(0, 1);
