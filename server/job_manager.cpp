@@ -238,17 +238,25 @@ gel::v1::Job JobManager::cancel(const std::string& id) {
     }
     throw unavailable();
   }
-  bool was_queued = false;
+  bool idle = false;  // queued, or between members, with no member running: cancel at once
   {
     std::lock_guard lock(mutex_);
     auto it = std::find(queue_.begin(), queue_.end(), id);
-    if (it != queue_.end()) {
-      queue_.erase(it);
-      was_queued = true;
+    if (it != queue_.end()) queue_.erase(it);
+    std::lock_guard live_lock(live->mutex);
+    idle = !live->ended && live->members_running == 0;
+    if (idle) {
+      live->cancel_requested = true;
+      live->stop = true;
     }
   }
-  if (was_queued) {
-    set_state(live, gel::v1::JOB_STATE_CANCELLED, "cancelled before it ran");
+  if (idle) {
+    bool ran = false;
+    {
+      std::lock_guard lock(live->mutex);
+      ran = live->started;
+    }
+    end_job(live, gel::v1::JOB_STATE_CANCELLED, ran ? "cancelled while running" : "cancelled before it ran");
     {
       std::lock_guard lock(mutex_);
       live_.erase(id);
@@ -507,9 +515,13 @@ std::vector<gel::v1::JobUpdate> JobManager::stored_rows(const std::string& id, s
   return out;
 }
 
+// Work items are (job, member): a worker takes the job at the head of the queue, claims its next
+// unfinished member and, when members remain unclaimed, puts the job back at the head, so idle
+// workers run the members of one job in parallel before the next job starts.
 void JobManager::worker_loop() {
   for (;;) {
     std::shared_ptr<Live> live;
+    int member = -1;
     {
       std::unique_lock lock(mutex_);
       queue_changed_.wait(lock, [&] { return shutting_down_ || !queue_.empty(); });
@@ -517,47 +529,88 @@ void JobManager::worker_loop() {
       const std::string id = queue_.front();
       queue_.pop_front();
       auto it = live_.find(id);
-      if (it != live_.end()) live = it->second;
+      if (it == live_.end()) continue;
+      live = it->second;
+      std::lock_guard live_lock(live->mutex);
+      const int members = std::max(1, live->job.seeds_size());
+      if (live->member_finished.empty()) {
+        // Recovered or new: members finished in an earlier life of geld are not run again.
+        live->member_finished.assign(static_cast<std::size_t>(members), 0);
+        for (const int done : store_->finished_members(id))
+          if (done >= 0 && done < members) live->member_finished[static_cast<std::size_t>(done)] = 1;
+        // Stores written before members ran in parallel only know the member being run.
+        for (int m = 0; m < std::min(live->job.member(), members); ++m) live->member_finished[static_cast<std::size_t>(m)] = 1;
+      }
+      while (live->next_member < members && live->member_finished[static_cast<std::size_t>(live->next_member)]) ++live->next_member;
+      if (live->next_member < members) {
+        member = live->next_member++;
+        ++live->members_running;
+      }
+      while (live->next_member < members && live->member_finished[static_cast<std::size_t>(live->next_member)]) ++live->next_member;
+      if (live->next_member < members && !live->stop) {
+        queue_.push_front(id);
+        queue_changed_.notify_one();
+      }
     }
-    if (!live) continue;
-    run_job(live);
-    bool ended = false;
+    if (member >= 0) {
+      run_member(live, member);
+    } else {
+      // Every member had finished before (a job recovered after its last member ended).
+      finish_if_done(live);
+    }
+    bool forget = false;
     std::string id;
     {
       std::lock_guard lock(live->mutex);
-      ended = live->ended;
+      forget = live->ended && live->members_running == 0;
       id = live->job.id();
     }
-    if (ended) {
+    if (forget) {
       std::lock_guard lock(mutex_);
       live_.erase(id);
     }
   }
 }
 
-void JobManager::run_job(const std::shared_ptr<Live>& live) {
+// Sets a terminal state once, whichever member thread gets there first.
+void JobManager::end_job(const std::shared_ptr<Live>& live, JobState state, const std::string& message) {
+  {
+    std::lock_guard lock(live->mutex);
+    if (live->ending) return;
+    live->ending = true;
+  }
+  set_state(live, state, message);
+}
+
+void JobManager::finish_if_done(const std::shared_ptr<Live>& live) {
+  bool all_done = false;
+  {
+    std::lock_guard lock(live->mutex);
+    all_done = std::all_of(live->member_finished.begin(), live->member_finished.end(), [](char done) { return done != 0; });
+  }
+  if (all_done) end_job(live, gel::v1::JOB_STATE_SUCCEEDED, "");
+}
+
+void JobManager::run_member(const std::shared_ptr<Live>& live, int member) {
   gel::v1::Job job;
+  bool first_to_start = false;
   {
     std::lock_guard lock(live->mutex);
     job = live->job;
+    first_to_start = !live->started;
+    live->started = true;
   }
   const std::string id = job.id();
-  if (live->stop && live->cancel_requested) {
-    set_state(live, gel::v1::JOB_STATE_CANCELLED, "cancelled before it ran");
-    return;
-  }
-  const bool resumed = job.state() == gel::v1::JOB_STATE_RUNNING;
-  set_state(live, gel::v1::JOB_STATE_RUNNING, "");
-  if (resumed) job_log(id, "info", "resuming after a restart at member " + std::to_string(job.member()));
-  try {
-    for (int member = job.member(); member < job.seeds_size(); ++member) {
-      if (live->stop) break;
+  enum class Outcome { kFinished, kStopped, kFailed } outcome = Outcome::kStopped;
+  std::string error;
+  if (!live->stop) {
+    if (first_to_start) {
+      const bool resumed = job.state() == gel::v1::JOB_STATE_RUNNING;
+      if (job.state() != gel::v1::JOB_STATE_RUNNING) set_state(live, gel::v1::JOB_STATE_RUNNING, "");
+      if (resumed) job_log(id, "info", "resuming after a restart");
+    }
+    try {
       const std::uint64_t seed = job.seeds(member);
-      if (member != job.member()) {
-        store_->set_member(id, member);
-        std::lock_guard lock(live->mutex);
-        live->job.set_member(member);
-      }
       RunContext ctx;
       ctx.job_id = id;
       ctx.member = member;
@@ -604,40 +657,73 @@ void JobManager::run_job(const std::shared_ptr<Live>& live) {
               "member " + std::to_string(member) + " (seed " + std::to_string(seed) + ") starts in " + ctx.out_dir +
                   (ctx.handle.empty() ? "" : " (handle " + ctx.handle + ")"));
       RunResult result = executor_->run(ctx);
-      if (!result.finished) break;
-      std::vector<gel::v1::CurveRow> rows(result.curve.rows().begin(), result.curve.rows().end());
-      store_->replace_rows(id, member, seed, rows, now_ms());
-      {
-        std::lock_guard lock(live->mutex);
-        live->job.set_rows(store_->row_count(id));
+      if (result.finished) {
+        std::vector<gel::v1::CurveRow> rows(result.curve.rows().begin(), result.curve.rows().end());
+        store_->replace_rows(id, member, seed, rows, now_ms());
+        store_->set_member_finished(id, member, now_ms());
+        job_log(id, "info", "member " + std::to_string(member) + " finished with " + std::to_string(rows.size()) + " rows");
+        outcome = Outcome::kFinished;
       }
-      job_log(id, "info", "member " + std::to_string(member) + " finished with " + std::to_string(rows.size()) + " rows");
-      if (member + 1 == job.seeds_size()) {
-        set_state(live, gel::v1::JOB_STATE_SUCCEEDED, "");
-        return;
-      }
-      // The next member at once: a shutdown now resumes there, not in the finished member.
-      store_->set_member(id, member + 1);
+    } catch (const std::exception& e) {
+      outcome = Outcome::kFailed;
+      error = e.what();
+    }
+  }
+
+  bool last_running = false;
+  {
+    std::lock_guard lock(live->mutex);
+    --live->members_running;
+    last_running = live->members_running == 0;
+    if (outcome == Outcome::kFinished) {
+      live->member_finished[static_cast<std::size_t>(member)] = 1;
+      live->job.set_rows(store_->row_count(id));
+      // The lowest unfinished member: where a geld without member_finished would resume.
+      int lowest = 0;
+      while (lowest < static_cast<int>(live->member_finished.size()) && live->member_finished[static_cast<std::size_t>(lowest)]) ++lowest;
+      live->job.set_member(lowest);
+    }
+  }
+  if (outcome == Outcome::kFinished) {
+    {
       std::lock_guard lock(live->mutex);
-      live->job.set_member(member + 1);
+      store_->set_member(id, live->job.member());
     }
+    finish_if_done(live);
+    return;
+  }
+  if (outcome == Outcome::kFailed) {
     if (live->cancel_requested) {
-      set_state(live, gel::v1::JOB_STATE_CANCELLED, "cancelled while running");
-    } else if (shutting_down_) {
-      job_log(id, "info", "checkpointed for shutdown; resumes on restart");
-    } else {
-      set_state(live, gel::v1::JOB_STATE_FAILED, "the run stopped before the last target");
+      if (last_running) end_job(live, gel::v1::JOB_STATE_CANCELLED, "cancelled while running");
+      return;
     }
-  } catch (const std::exception& e) {
-    if (live->cancel_requested) {
-      set_state(live, gel::v1::JOB_STATE_CANCELLED, "cancelled while running");
-    } else {
-      try {
-        job_log(id, "error", e.what());
-      } catch (...) {
-      }
-      set_state(live, gel::v1::JOB_STATE_FAILED, e.what());
+    try {
+      job_log(id, "error", "member " + std::to_string(member) + ": " + error);
+    } catch (...) {
     }
+    // One member failing fails the job: the others stop (they stay resumable on disk).
+    live->stop = true;
+    end_job(live, gel::v1::JOB_STATE_FAILED, error);
+    return;
+  }
+  // Stopped (or never started because the job was stopping).
+  if (!last_running) return;
+  if (live->cancel_requested) {
+    bool ran = false;
+    {
+      std::lock_guard lock(live->mutex);
+      ran = live->job.state() == gel::v1::JOB_STATE_RUNNING;
+    }
+    end_job(live, gel::v1::JOB_STATE_CANCELLED, ran ? "cancelled while running" : "cancelled before it ran");
+  } else if (shutting_down_) {
+    job_log(id, "info", "checkpointed for shutdown; resumes on restart");
+  } else {
+    bool ended = false;
+    {
+      std::lock_guard lock(live->mutex);
+      ended = live->ending;
+    }
+    if (!ended) end_job(live, gel::v1::JOB_STATE_FAILED, "the run stopped before the last target");
   }
 }
 

@@ -114,12 +114,20 @@ class JobManager {
     std::vector<gel::v1::JobUpdate> history;
     gel::v1::JobUpdate progress;  // latest; sequence 0: none yet
     bool ended = false;
+    bool ending = false;                // a terminal state is being set (by one member thread)
+    // Members (guarded by mutex): claimed in index order by the workers, run in parallel.
+    std::vector<char> member_finished;  // per member; empty until a worker first takes the job
+    int next_member = 0;                // first member not yet claimed
+    int members_running = 0;            // claimed and not yet returned
+    bool started = false;               // a member has been handed to an executor
     std::atomic<bool> cancel_requested{false};
     std::atomic<bool> stop{false};
   };
 
   void worker_loop();
-  void run_job(const std::shared_ptr<Live>& live);
+  void run_member(const std::shared_ptr<Live>& live, int member);
+  void finish_if_done(const std::shared_ptr<Live>& live);
+  void end_job(const std::shared_ptr<Live>& live, gel::v1::JobState state, const std::string& message);
   void publish(Live& live, gel::v1::JobUpdate update);
   void set_state(const std::shared_ptr<Live>& live, gel::v1::JobState state, const std::string& message);
   void job_log(const std::string& id, const std::string& level, const std::string& message);

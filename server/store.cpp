@@ -198,6 +198,16 @@ CREATE TABLE member_runs (
   PRIMARY KEY (job_id, member)
 );
 )sql",
+    // 3 -> 4: members of one job run in parallel, so "the member being run" is no longer enough
+    // to resume: every finished member is recorded.
+    R"sql(
+CREATE TABLE member_finished (
+  job_id TEXT NOT NULL REFERENCES jobs(id),
+  member INTEGER NOT NULL,
+  finished_ms INTEGER NOT NULL,
+  PRIMARY KEY (job_id, member)
+);
+)sql",
 };
 static_assert(sizeof(kMigrations) / sizeof(kMigrations[0]) == Store::kSchemaVersion);
 
@@ -437,6 +447,21 @@ void Store::set_member_handle(const std::string& id, int member, std::uint64_t s
           "VALUES (?, ?, ?, ?, ?, ?)");
   up.bind(1, id).bind(2, member).bind(3, static_cast<std::int64_t>(seed)).bind(4, executor).bind(5, handle);
   up.bind(6, now_ms).run();
+}
+
+void Store::set_member_finished(const std::string& id, int member, std::int64_t now_ms) {
+  std::lock_guard lock(mutex_);
+  Stmt ins(db_, "INSERT OR REPLACE INTO member_finished(job_id, member, finished_ms) VALUES (?, ?, ?)");
+  ins.bind(1, id).bind(2, member).bind(3, now_ms).run();
+}
+
+std::vector<int> Store::finished_members(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  Stmt q(db_, "SELECT member FROM member_finished WHERE job_id = ? ORDER BY member");
+  q.bind(1, id);
+  std::vector<int> members;
+  while (q.step()) members.push_back(static_cast<int>(q.i64(0)));
+  return members;
 }
 
 std::string Store::member_handle(const std::string& id, int member) {

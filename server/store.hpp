@@ -2,7 +2,7 @@
 // The daemon's durable state: one SQLite file in WAL mode. Every write is a committed
 // transaction before the call returns, so anything acknowledged to a client survives a crash.
 //
-// Schema (version 3; migrations run from the `schema_version` table on open):
+// Schema (version 4; migrations run from the `schema_version` table on open):
 //   schema_version(version)                          one row: the schema's version
 //   jobs(seq PK autoincrement, id UNIQUE, name, state, scene BLOB (resolved gel.v1.Scene),
 //        scene_json, seeds (JSON array), particles, bond_preset, created_ms, started_ms,
@@ -19,6 +19,8 @@
 //   logs(id PK, job_id, at_ms, level, message)       the job's log lines
 //   member_runs(job_id, member, seed, executor, handle, updated_ms)  PK (job_id, member); an
 //                                                    executor's handle (e.g. Slurm job id)
+//   member_finished(job_id, member, finished_ms)     PK (job_id, member); members that finished
+//                                                    (members of a job run in parallel)
 #include <cstdint>
 #include <mutex>
 #include <optional>
@@ -67,7 +69,7 @@ struct StoredRow {
 
 class Store {
  public:
-  static constexpr int kSchemaVersion = 3;
+  static constexpr int kSchemaVersion = 4;
 
   explicit Store(const std::string& path);
   ~Store();
@@ -93,6 +95,9 @@ class Store {
   void set_member_handle(const std::string& id, int member, std::uint64_t seed, const std::string& executor,
                          const std::string& handle, std::int64_t now_ms);
   std::string member_handle(const std::string& id, int member);  // "" if none
+  // A member whose whole curve is stored (committed before the call returns).
+  void set_member_finished(const std::string& id, int member, std::int64_t now_ms);
+  std::vector<int> finished_members(const std::string& id);  // ascending
   std::int64_t add_log(const std::string& job_id, const std::string& level, const std::string& message,
                        std::int64_t now_ms);
 

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <functional>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -837,6 +838,125 @@ TEST_F(Service, RealEnsembleRunsEachSeed) {
   EXPECT_EQ(c.ensemble_size(), 3);
 }
 
+TEST_F(Service, MembersOfOneJobRunInParallelOnIdleWorkers) {
+  Script& script = make_script();
+  script.rows = 3;
+  script.open_rows = 1;
+  start({}, 3, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json(), {1, 2, 3});
+  // Each member emits one row, then blocks: three rows stored means three members at once.
+  ASSERT_TRUE(wait_for([&] { return get(id).rows() == 3; }));
+  EXPECT_EQ(script.running.load(), 3);
+  EXPECT_EQ(get(id).state(), gel::v1::JOB_STATE_RUNNING);
+  script.open();
+  auto updates = watch(id);
+  ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED) << get(id).error();
+  EXPECT_EQ(script.max_running.load(), 3);
+  std::set<int> members_streamed;
+  for (const auto& u : updates)
+    if (u.kind() == JobUpdate::ROW) members_streamed.insert(u.member());
+  EXPECT_EQ(members_streamed, (std::set<int>{0, 1, 2}));
+  EXPECT_EQ(get(id).rows(), 9);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM member_finished WHERE job_id = '" + id + "'"), 3);
+}
+
+TEST_F(Service, AJobsMembersGoFirstThenTheNextJob) {
+  // One worker: members run one after another, and a job queued later waits for all of them.
+  Script& script = make_script();
+  script.rows = 2;
+  start({}, 1, scripted(script));
+  const std::string first = submit_ok(tiny_scene_json(), {1, 2});
+  const std::string second = submit_ok(tiny_scene_json());
+  watch(second);
+  ASSERT_EQ(get(first).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  ASSERT_EQ(get(second).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(script.max_running.load(), 1);
+  EXPECT_LE(get(first).finished_unix_ms(), get(second).started_unix_ms());
+}
+
+TEST_F(Service, AFailingMemberFailsTheJobAndStopsTheOthers) {
+  std::atomic<bool> other_saw_stop{false};
+  auto executor = std::make_shared<FnExecutor>([&](const geld::RunContext& ctx) -> geld::RunResult {
+    if (ctx.member == 0) {
+      std::this_thread::sleep_for(200ms);  // let member 1 start first
+      throw std::runtime_error("numerical instability in member 0");
+    }
+    const auto until = std::chrono::steady_clock::now() + 60s;
+    while (!ctx.stop->load() && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(5ms);
+    other_saw_stop = ctx.stop->load();
+    geld::RunResult result;
+    result.stopped = true;
+    return result;
+  });
+  start({}, 2, executor);
+  const std::string id = submit_ok(tiny_scene_json(), {1, 2});
+  watch(id);
+  const auto job = get(id);
+  EXPECT_EQ(job.state(), gel::v1::JOB_STATE_FAILED);
+  EXPECT_NE(job.error().find("member 0"), std::string::npos) << job.error();
+  ASSERT_TRUE(wait_for([&] { return other_saw_stop.load(); }, 10s));
+}
+
+TEST_F(Service, CancelStopsEveryRunningMember) {
+  Script& script = make_script();
+  script.rows = 3;
+  script.open_rows = 1;
+  start({}, 2, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json(), {1, 2, 3});
+  ASSERT_TRUE(wait_for([&] { return get(id).rows() == 2; }));  // members 0 and 1 run, 2 waits
+  gel::v1::CancelJobRequest request;
+  request.set_job_id(id);
+  gel::v1::Job job;
+  ASSERT_TRUE(stub_->CancelJob(ctx().get(), request, &job).ok());
+  ASSERT_TRUE(wait_for([&] { return get(id).state() == gel::v1::JOB_STATE_CANCELLED; }));
+  ASSERT_TRUE(wait_for([&] { return script.running.load() == 0; }));
+  EXPECT_EQ(script.max_running.load(), 2);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM curve_rows WHERE job_id = '" + id + "' AND member = 2"), 0);
+}
+
+TEST_F(Service, RestartRunsOnlyTheMembersThatHadNotFinished) {
+  std::mutex mutex;
+  std::vector<int> started;
+  std::atomic<bool> release{false};
+  auto executor = std::make_shared<FnExecutor>([&](const geld::RunContext& ctx) -> geld::RunResult {
+    {
+      std::lock_guard lock(mutex);
+      started.push_back(ctx.member);
+    }
+    geld::RunResult result;
+    // Member 1 blocks until the daemon stops (or the second life releases it).
+    while (ctx.member == 1 && !release && !ctx.stop->load()) std::this_thread::sleep_for(5ms);
+    if (ctx.member == 1 && !release) {
+      result.stopped = true;
+      return result;
+    }
+    for (int k = 0; k < 2; ++k) {
+      auto row = make_row(k, static_cast<double>(ctx.seed));
+      ctx.on_row(row);
+      *result.curve.add_rows() = row;
+    }
+    result.finished = true;
+    return result;
+  });
+  start({}, 2, executor);
+  const std::string id = submit_ok(tiny_scene_json(), {4, 5, 6});
+  ASSERT_TRUE(wait_for([&] { return sqlite_count("SELECT count(*) FROM member_finished WHERE job_id = '" + id + "'") == 2; }));
+  stop();
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs WHERE id = '" + id + "' AND state = 'running'"), 1);
+  {
+    std::lock_guard lock(mutex);
+    started.clear();
+  }
+  release = true;
+  start({}, 2, executor);
+  watch(id);
+  ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED) << get(id).error();
+  std::lock_guard lock(mutex);
+  EXPECT_EQ(started, std::vector<int>{1});
+  EXPECT_EQ(curve(id).members_size(), 3);
+  EXPECT_EQ(get(id).rows(), 6);
+}
+
 TEST_F(Service, QueryCurvesByBondLabelsAndParameters) {
   Script& script = make_script();
   script.rows = 2;
@@ -913,12 +1033,13 @@ TEST(Store, MigratesFromAnOlderSchemaVersion) {
     job.set_created_unix_ms(1);
     id = store.insert_job(job, "{}", {});
   }
-  // Turn the file into a version 1 database: no indexes (v2), no member_runs table (v3).
+  // Turn the file into a version 1 database: no indexes (v2), no member_runs table (v3), no
+  // member_finished table (v4).
   {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
     const char* sql =
-        "DROP TABLE member_runs; DROP INDEX jobs_state; DROP INDEX jobs_name; DROP INDEX job_labels_kv; "
+        "DROP TABLE member_finished; DROP TABLE member_runs; DROP INDEX jobs_state; DROP INDEX jobs_name; DROP INDEX job_labels_kv; "
         "DROP INDEX parameters_name; DROP INDEX states_job; DROP INDEX logs_job; DROP INDEX events_job; "
         "UPDATE schema_version SET version = 1;";
     char* err = nullptr;
@@ -935,6 +1056,9 @@ TEST(Store, MigratesFromAnOlderSchemaVersion) {
     store.set_member_handle(id, 0, 7, "slurm", "1234:0", 2);
     EXPECT_EQ(store.member_handle(id, 0), "1234:0");
     EXPECT_EQ(store.member_handle(id, 1), "");
+    EXPECT_TRUE(store.finished_members(id).empty());
+    store.set_member_finished(id, 0, 3);
+    EXPECT_EQ(store.finished_members(id), std::vector<int>{0});
   }
   // A newer schema than this geld knows is refused.
   {
