@@ -24,14 +24,16 @@ struct BenchArgs {
   std::uint64_t seed = 1;
   bool json = false;
   int repeat = 1;
+  std::vector<int> threads{1};
 };
 
-nlohmann::json bench_once(const BenchArgs& args, unsigned effects) {
+nlohmann::json bench_once(const BenchArgs& args, unsigned effects, int threads) {
   gel::v1::Scene scene;
   scene.mutable_bond()->set_preset(args.bond);
   gel::SimParams params = gel::resolve_sim_params(scene);
   params.effects = effects;
   gel::System system(gel::random_network(args.particles, args.seed), params);
+  system.set_threads(threads);
   if (effects & gel::kWalls) {
     system.install_walls();
     system.set_wall_velocities(args.v_wall, -args.v_wall);
@@ -56,6 +58,7 @@ nlohmann::json bench_once(const BenchArgs& args, unsigned effects) {
           {"steps", steps},
           {"seconds", seconds},
           {"particle_steps_per_second", rate},
+          {"threads", threads},
           {"dt", system.params().dt},
           {"neighbour_rebuilds", system.neighbour_rebuilds()},
           {"events", {{"normal", events.normal}, {"sliding", events.sliding}, {"rolling", events.rolling}, {"created", events.created}}}};
@@ -75,11 +78,13 @@ int run_bench(const BenchArgs& args) {
     runs = {{"selected", gel::parse_effects(args.effects)}};
   }
   nlohmann::json results = nlohmann::json::array();
-  for (const auto& [label, effects] : runs) {
+  for (const auto& [base_label, effects] : runs)
+  for (const int threads : args.threads) {
+    const std::string label = args.threads.size() > 1 ? base_label + ", " + std::to_string(threads) + " threads" : base_label;
     // The machine is noisy: with --repeat N the rate reported is the median of N measurements
     // (all of them are listed).
     std::vector<nlohmann::json> trials;
-    for (int r = 0; r < args.repeat; ++r) trials.push_back(bench_once(args, effects));
+    for (int r = 0; r < args.repeat; ++r) trials.push_back(bench_once(args, effects, threads));
     std::vector<double> rates;
     for (const auto& t : trials) rates.push_back(t["particle_steps_per_second"].get<double>());
     std::vector<double> sorted = rates;
@@ -115,6 +120,9 @@ gelsim::Registrar bench_command("bench", "speed of the step loop (particle-steps
   sub.add_option("--v-wall", args->v_wall, "wall speed during the benchmark [a/t0]")->check(CLI::NonNegativeNumber);
   sub.add_option("--seed", args->seed, "seed of the network");
   sub.add_flag("--json", args->json, "print one JSON object");
+  sub.add_option("--threads", args->threads, "engine threads; several (1,2,4): a scaling table")
+      ->delimiter(',')
+      ->check(CLI::Range(1, 1024));
   sub.add_option("--repeat", args->repeat, "measure N times and report the median (default 1)")->check(CLI::Range(1, 100));
   return [args] { return run_bench(*args); };
 });

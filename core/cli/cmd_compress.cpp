@@ -62,6 +62,7 @@ struct CompressArgs {
   // Ensemble: members by seed, `jobs` at a time, each in out/seed_<seed>.
   std::string seeds;
   int jobs = 1;
+  int threads = 1;
 };
 
 gel::v1::Scene build_scene(const CompressArgs& args) {
@@ -290,6 +291,7 @@ int run_ensemble(const CompressArgs& args) {
       options.stop = &g_stop;
       options.progress_interval_seconds = std::max(args.progress_interval, 1.0);
       options.write_snapshots = !args.no_snapshots;
+      options.threads = args.threads;
       options.on_progress = [&, seed, prefix](const gel::v1::Progress& p) {
         nlohmann::json line = progress_json(p);
         line["seed"] = seed;
@@ -382,6 +384,7 @@ int run_compress(const CompressArgs& args) {
   options.stop = &g_stop;
   options.progress_interval_seconds = args.progress_interval;
   options.write_snapshots = !args.no_snapshots;
+  options.threads = args.threads;
   options.on_progress = [&](const gel::v1::Progress& p) {
     progress_file.write(progress_json(p));
     if (terminal)
@@ -442,6 +445,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--bond", args->bond, "bond preset: bond1, bond2");
   sub.add_option("--seed", args->seed, "generator seed");
   sub.add_option("--seeds", args->seeds, "an ensemble: seeds 1-10 or 1,4,7-9, each member in OUT/seed_<seed>");
+  sub.add_option("--threads", args->threads, "engine threads per run (results are bit-identical for any number)")
+      ->check(CLI::Range(1, 1024));
   sub.add_option("--jobs", args->jobs, "ensemble members run at a time (0: one per core; default 1)")->check(CLI::NonNegativeNumber);
   sub.add_option("--fidelity", args->fidelity, "fast, default, paper (MODEL.md reference values) or quasistatic (FIRE relaxation)");
   sub.add_option("--out", args->out, "run directory: curve.json/csv, profiles.csv, snapshots/, checkpoint.bin");

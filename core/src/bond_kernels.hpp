@@ -1,12 +1,19 @@
 #pragma once
-// The arithmetic half of the bond loop (System::bond_forces): the forces and torques of a chunk
-// of bonds, from the particles' positions and orientations, into per-bond arrays. It gathers but
-// never scatters, and it takes no branch, so it vectorises (gathers on AVX2/AVX-512, clones per
-// instruction set: simd_dispatch.hpp). The scatter onto the particles, in bond order, and the
-// rare bonds that need the exact path (a threshold exceeded, a bending angle beyond the
-// series) stay scalar in System::bond_forces.
+// The bond loop's data and kernels (System::bond_forces), in three passes:
+//  1. forces: every bond's force and torques from the particles' positions and orientations,
+//     into per-bond arrays. It gathers but never scatters and takes no branch, so it vectorises
+//     (gathers on AVX2/AVX-512, clones per instruction set: simd_dispatch.hpp), and chunks of
+//     bonds run on any thread.
+//  2. exact: the rare bonds flagged by pass 1 (a threshold exceeded, a bending angle beyond the
+//     series) are evaluated again exactly, in bond order, on one thread (resets, breaks and
+//     their bookkeeping: System::bond_force_exact).
+//  3. sum: each particle adds up the forces of its bonds in bond order (an incidence list), so
+//     every sum is the same sequence of additions as a serial loop over the bonds would make,
+//     whatever the number of threads, and particles in blocks run on any thread.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "gel/bond_evaluator.hpp"
@@ -16,34 +23,51 @@
 
 namespace gel::detail {
 
-// Bonds per chunk: the chunk's outputs (6 x 8 B per bond) stay in L1 between the two halves.
-inline constexpr std::size_t kBondChunk = 256;
+inline constexpr std::size_t kBondChunk = 256;       // bonds per task of pass 1 (one thread: its results stay in L1)
+inline constexpr std::size_t kParticleBlock = 2048;  // particles per task of pass 3 and the integrator
 
-struct BondChunkForces {
-  double force_x[kBondChunk];   // on i (on j: opposite)
-  double force_y[kBondChunk];
-  double torque_i[kBondChunk];
-  double torque_j[kBondChunk];
-  double delta[kBondChunk];     // gap
-  std::uint8_t exact[kBondChunk];  // 1: this bond takes the exact scalar path instead
+// Per-bond results of pass 1 (and 2).
+struct BondForceArrays {
+  std::vector<double> force_x, force_y;  // on i (on j: opposite)
+  std::vector<double> torque_i, torque_j;
+  std::vector<double> delta;             // gap
+  std::vector<std::uint8_t> state;       // kCommon, kExact (pass 2 redoes it) or kBroken (no force)
+
+  static constexpr std::uint8_t kCommon = 0, kExact = 1, kBroken = 2;
 };
 
-// The bonds as arrays, a mirror of System::bonds_ kept by the loop: GCC vectorises gathers whose
-// indices come from an array, not from a field of an array of structs.
+// The bonds as arrays, a mirror of System::bonds_ (GCC vectorises gathers whose indices come
+// from an array, not from a field of an array of structs), and each particle's bonds in bond
+// order: entry 2b for a bond b whose i it is, 2b + 1 for one whose j it is.
 struct BondArrays {
   std::vector<std::int32_t> i, j;
   std::vector<double> bix, biy, bjx, bjy;
   std::vector<double> shift_x, shift_y;
+  std::vector<std::int32_t> incidence_start;  // particle p's entries: [start[p], start[p + 1])
+  std::vector<std::int32_t> incidence;
   bool valid = false;  // false: rebuilt from bonds_ before the next use
 
-  void assign(const std::vector<Bond>& bonds) {
+  void assign(const std::vector<Bond>& bonds, std::size_t particles) {
     const std::size_t n = bonds.size();
     for (auto* column : {&bix, &biy, &bjx, &bjy, &shift_x, &shift_y}) column->resize(n);
     i.resize(n);
     j.resize(n);
     for (std::size_t b = 0; b < n; ++b) set(b, bonds[b]);
+    incidence_start.assign(particles + 1, 0);
+    for (std::size_t b = 0; b < n; ++b) {
+      ++incidence_start[static_cast<std::size_t>(i[b]) + 1];
+      ++incidence_start[static_cast<std::size_t>(j[b]) + 1];
+    }
+    for (std::size_t p = 0; p < particles; ++p) incidence_start[p + 1] += incidence_start[p];
+    incidence.resize(2 * n);
+    std::vector<std::int32_t> fill(incidence_start.begin(), incidence_start.end() - 1);
+    for (std::size_t b = 0; b < n; ++b) {
+      incidence[static_cast<std::size_t>(fill[static_cast<std::size_t>(i[b])]++)] = static_cast<std::int32_t>(2 * b);
+      incidence[static_cast<std::size_t>(fill[static_cast<std::size_t>(j[b])]++)] = static_cast<std::int32_t>(2 * b + 1);
+    }
     valid = true;
   }
+  // A bond whose contact points changed (a reset): the incidence is unchanged.
   void set(std::size_t b, const Bond& bond) {
     i[b] = bond.i;
     j[b] = bond.j;
@@ -56,12 +80,31 @@ struct BondArrays {
   }
 };
 
-// Bonds [begin, begin + count) (count <= kBondChunk).
+// One thread's pass-1 results for one chunk, in L1 until its scatter (System::bond_forces).
+struct BondChunkForces {
+  double force_x[kBondChunk], force_y[kBondChunk];
+  double torque_i[kBondChunk], torque_j[kBondChunk];
+  double delta[kBondChunk];
+  std::uint8_t state[kBondChunk];
+};
+
+struct BondScratch {
+  BondArrays bonds;
+  BondForceArrays forces;  // several threads: every bond's results
+  BondChunkForces chunk;   // one thread
+  std::vector<double> chunk_min_delta;  // pass 1: smallest gap of a common bond, per chunk
+};
+
+// Pass 1 over bonds [begin, begin + count), into the out_* arrays (offset to begin already).
+// The outputs are restrict parameters: GCC honours restrict on parameters, not on local pointers,
+// and without it the loop needs more run-time alias checks than it will version for.
 template <unsigned kEffects, bool kShift, bool kCheckThresholds>
 GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begin, std::size_t count,
                                        const double* __restrict x, const double* __restrict y,
                                        const double* __restrict c, const double* __restrict s, const BondLaw& law,
-                                       BondChunkForces& __restrict out) {
+                                       double* __restrict out_fx, double* __restrict out_fy,
+                                       double* __restrict out_ti, double* __restrict out_tj,
+                                       double* __restrict out_delta, std::uint8_t* __restrict out_state) {
   using Evaluator = BondEvaluator<kEffects>;
   const std::int32_t* __restrict bond_i = bonds.i.data() + begin;
   const std::int32_t* __restrict bond_j = bonds.j.data() + begin;
@@ -99,20 +142,54 @@ GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begi
       exact = exact | (f.normal_force > law.f_normal_critical) | (ft_sq > f_sliding_sq) |
               (std::abs(f.rolling_moment) > law.m_rolling_critical);
     }
-    out.force_x[k] = f.normal_force * g.nx + f.sliding_x;
-    out.force_y[k] = f.normal_force * g.ny + f.sliding_y;
+    out_fx[k] = f.normal_force * g.nx + f.sliding_x;
+    out_fy[k] = f.normal_force * g.ny + f.sliding_y;
     // a n x F_T acts on both particles (on j: (-a n) x (-F_T)).
     const double sliding_torque = kRadius * (g.nx * f.sliding_y - g.ny * f.sliding_x);
-    out.torque_i[k] = f.rolling_moment + sliding_torque;
-    out.torque_j[k] = -f.rolling_moment + sliding_torque;
-    out.delta[k] = g.delta;
-    out.exact[k] = exact;
+    out_ti[k] = f.rolling_moment + sliding_torque;
+    out_tj[k] = -f.rolling_moment + sliding_torque;
+    out_delta[k] = g.delta;
+    out_state[k] = static_cast<std::uint8_t>(exact);  // kCommon or kExact
   }
 }
 
-struct BondChunkScratch {
-  BondArrays bonds;
-  BondChunkForces forces;
-};
+// The smallest gap among the common bonds of [begin, begin + count) (exact ones are pass 2's).
+inline double common_min_delta(const BondForceArrays& forces, std::size_t begin, std::size_t count) {
+  double min_delta = std::numeric_limits<double>::infinity();
+  for (std::size_t k = begin; k < begin + count; ++k)
+    if (forces.state[k] == BondForceArrays::kCommon) min_delta = std::min(min_delta, forces.delta[k]);
+  return min_delta;
+}
+
+// Pass 3 for particles [begin, end): force and torque of each from its bonds, in bond order.
+inline void sum_bond_forces(const BondArrays& bonds, const BondForceArrays& forces, std::size_t begin, std::size_t end,
+                            double* __restrict fx, double* __restrict fy, double* __restrict torque) {
+  const std::int32_t* __restrict start = bonds.incidence_start.data();
+  const std::int32_t* __restrict incidence = bonds.incidence.data();
+  const double* __restrict force_x = forces.force_x.data();
+  const double* __restrict force_y = forces.force_y.data();
+  const double* __restrict torque_i = forces.torque_i.data();
+  const double* __restrict torque_j = forces.torque_j.data();
+  const std::uint8_t* __restrict state = forces.state.data();
+  for (std::size_t p = begin; p < end; ++p) {
+    double sum_x = 0.0, sum_y = 0.0, sum_t = 0.0;
+    for (std::int32_t e = start[p]; e < start[p + 1]; ++e) {
+      const std::size_t b = static_cast<std::size_t>(incidence[e]) >> 1;
+      if (state[b] == BondForceArrays::kBroken) [[unlikely]] continue;
+      if (incidence[e] & 1) {
+        sum_x -= force_x[b];
+        sum_y -= force_y[b];
+        sum_t += torque_j[b];
+      } else {
+        sum_x += force_x[b];
+        sum_y += force_y[b];
+        sum_t += torque_i[b];
+      }
+    }
+    fx[p] = sum_x;
+    fy[p] = sum_y;
+    torque[p] = sum_t;
+  }
+}
 
 }  // namespace gel::detail

@@ -285,7 +285,9 @@ class CompressionRun {
         targets_(compression_targets(state.phi0, settings_.w0, settings_.phi_max, settings_.steps)),
         session_start_(Clock::now()),
         last_progress_(session_start_),
-        last_checkpoint_(session_start_) {}
+        last_checkpoint_(session_start_) {
+    system_.set_threads(options.threads);  // any number gives the same bits (System::set_threads)
+  }
 
   // A fresh run: records row 0 and writes its outputs.
   void start() {

@@ -84,16 +84,22 @@ void require_fraction(const std::string& field, double value) {
 
 }  // namespace
 
-std::vector<std::string> scene_preset_names() { return {"quick", "paper-bond1", "paper-bond2"}; }
+std::vector<std::string> scene_preset_names() {
+  return {"quick", "paper-bond1", "paper-bond2", "paper-bond1-4x", "paper-bond2-4x", "paper-bond1-16x", "paper-bond2-16x"};
+}
 
 gel::v1::Scene scene_preset(std::string_view name) {
   gel::v1::Scene scene;
   scene.set_preset(std::string(name));
   scene.set_name(std::string(name));
   gel::v1::Compression* compression = scene.mutable_compression();
-  if (name == "paper-bond1" || name == "paper-bond2") {
-    // The generator presets and MODEL.md's reference protocol for the bond set.
-    scene.mutable_bond()->set_preset(name == "paper-bond1" ? "bond1" : "bond2");
+  const std::vector<std::string> names = scene_preset_names();
+  const bool paper_family = (name.starts_with("paper-bond1") || name.starts_with("paper-bond2")) &&
+                            std::find(names.begin(), names.end(), name) != names.end();
+  if (paper_family) {
+    // The generator presets (the paper's box, or 4x / 16x it) and MODEL.md's reference protocol
+    // for the bond set.
+    scene.mutable_bond()->set_preset(name.starts_with("paper-bond1") ? "bond1" : "bond2");
     scene.mutable_generator()->set_preset(std::string(name));
     compression->set_fidelity("paper");
   } else if (name == "quick") {
@@ -106,7 +112,7 @@ gel::v1::Scene scene_preset(std::string_view name) {
     compression->set_phi_max(0.5);
   } else {
     throw InvalidArgument("preset", "unknown scene preset '" + std::string(name) +
-                                        "' (known: quick, paper-bond1, paper-bond2)");
+                                        "' (known: quick, paper-bond1, paper-bond2, paper-bond1-4x, paper-bond2-4x, paper-bond1-16x, paper-bond2-16x)");
   }
   scene.mutable_generator()->set_seed(1);
   return scene;

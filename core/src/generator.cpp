@@ -372,6 +372,21 @@ void require_given_positive(const std::string& field, double value) {
 }  // namespace
 
 gel::v1::Generator generator_preset(std::string_view name) {
+  // "paper-bond1-4x", "paper-bond2-16x": the paper's box scaled by 2 (4) in each direction at the
+  // same phi_0 and floc size, i.e. 4x (16x) the clusters and particles, for users who trade
+  // seeds for size (bigger gels self-average).
+  for (const auto& [suffix, scale] : {std::pair<std::string_view, int>{"-4x", 2}, {"-16x", 4}}) {
+    if (name.size() > suffix.size() && name.substr(name.size() - suffix.size()) == suffix) {
+      const std::string_view base = name.substr(0, name.size() - suffix.size());
+      if (base != "paper-bond1" && base != "paper-bond2") break;
+      gel::v1::Generator g = generator_preset(base);
+      g.set_preset(std::string(name));
+      g.set_lx(g.lx() * scale);
+      g.set_ly(g.ly() * scale);
+      g.set_n_clusters(g.n_clusters() * scale * scale);
+      return g;
+    }
+  }
   gel::v1::Generator g;
   g.set_preset(std::string(name));
   if (name == "paper-bond1") {
@@ -391,7 +406,7 @@ gel::v1::Generator generator_preset(std::string_view name) {
     g.set_n_clusters(16);
   } else {
     throw InvalidArgument("generator.preset", "unknown preset '" + std::string(name) +
-                                                  "' (known: paper-bond1, paper-bond2, quick)");
+                                                  "' (known: paper-bond1, paper-bond2, quick; paper-bond1-4x, -16x and the same for bond 2)");
   }
   return g;
 }

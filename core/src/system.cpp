@@ -13,6 +13,7 @@
 #include "gel/units.hpp"
 #include "bond_kernels.hpp"
 #include "integrator_kernels.hpp"
+#include "worker_pool.hpp"
 #include "rotation.hpp"
 
 namespace gel {
@@ -81,7 +82,7 @@ System::System(System&&) noexcept = default;
 System& System::operator=(System&&) noexcept = default;
 
 System::System(const Configuration& config, const SimParams& params)
-    : params_(params), bond_scratch_(std::make_unique<detail::BondChunkScratch>()) {
+    : params_(params), bond_scratch_(std::make_unique<detail::BondScratch>()) {
   const std::size_t n = config.size();
   if (n == 0) throw InvalidArgument("configuration", "no particles");
   if (!(params_.dt > 0)) params_.dt = params_.dt_fraction * shortest_period(params_.bond);
@@ -387,14 +388,15 @@ void System::remove_marked_bonds() {
   bond_scratch_->bonds.valid = false;
 }
 
-// The exact evaluation of one bond, with its thresholds: the bonds the vectorised chunk flags
-// (a threshold exceeded, a bending angle beyond the series). Returns true when the bond broke
-// (it is marked and contributes no force).
+// Pass 2 of the bond loop (bond_kernels.hpp): one bond flagged by pass 1 evaluated exactly, with
+// its thresholds, into the per-bond results. Returns true when the bond broke (it is marked and
+// contributes no force).
 template <unsigned kMask>
 bool System::bond_force_exact(std::size_t b, double& min_delta) {
   using Evaluator = BondEvaluator<kMask & kBondEffectBits>;
   constexpr bool kCheckThresholds = (kMask & kThresholds) != 0;
   const BondLaw& law = params_.bond;
+  detail::BondForceArrays& out = bond_scratch_->forces;
   const Bond& bond = bonds_[b];
   const std::int32_t i = bond.i, j = bond.j;
   double dx = x_[j] - x_[i], dy = y_[j] - y_[i];
@@ -417,64 +419,115 @@ bool System::bond_force_exact(std::size_t b, double& min_delta) {
     const double ft_sq = f.sliding_x * f.sliding_x + f.sliding_y * f.sliding_y;
     if (f.normal_force > law.f_normal_critical || ft_sq > law.f_sliding_critical * law.f_sliding_critical ||
         std::abs(f.rolling_moment) > law.m_rolling_critical) {
-      if (handle_threshold(b, f.normal_force, ft_sq, f.rolling_moment, g.nx, g.ny)) return true;
+      if (handle_threshold(b, f.normal_force, ft_sq, f.rolling_moment, g.nx, g.ny)) {
+        out.state[b] = detail::BondForceArrays::kBroken;
+        return true;
+      }
       f.sliding_x = f.sliding_y = f.rolling_moment = 0.0;
     }
   }
-  const double force_x = f.normal_force * g.nx + f.sliding_x;
-  const double force_y = f.normal_force * g.ny + f.sliding_y;
-  fx_[i] += force_x;
-  fy_[i] += force_y;
-  fx_[j] -= force_x;
-  fy_[j] -= force_y;
+  out.force_x[b] = f.normal_force * g.nx + f.sliding_x;
+  out.force_y[b] = f.normal_force * g.ny + f.sliding_y;
   const double sliding_torque = kRadius * (g.nx * f.sliding_y - g.ny * f.sliding_x);
-  torque_[i] += f.rolling_moment + sliding_torque;
-  torque_[j] += -f.rolling_moment + sliding_torque;
+  out.torque_i[b] = f.rolling_moment + sliding_torque;
+  out.torque_j[b] = -f.rolling_moment + sliding_torque;
   min_delta = std::min(min_delta, g.delta);
   return false;
 }
 
-// Chunks of bonds: the arithmetic vectorised into per-bond results (bond_kernels.hpp), then the
-// scatter onto the particles in bond order, so the sums are the same bits as a plain loop.
+// The three passes of bond_kernels.hpp. Every particle's force is the same sequence of additions
+// (its bonds in bond order) for any number of threads, so results are bit-identical.
 template <unsigned kMask>
 void System::bond_forces() {
   constexpr unsigned kEffects = kMask & kBondEffectBits;
   constexpr bool kShift = (kMask & kShiftBit) != 0;
   constexpr bool kCheckThresholds = (kMask & kThresholds) != 0;
   const BondLaw law = params_.bond;
-  double* __restrict fx = fx_.data();
-  double* __restrict fy = fy_.data();
-  double* __restrict torque = torque_.data();
-  // Two minima, so that the one of the common path is not address-taken and stays in a register.
-  double min_delta = min_delta_, exact_min_delta = min_delta_;
-  bool any_broken = false;
-  detail::BondChunkForces& chunk = bond_scratch_->forces;
-  detail::BondArrays& arrays = bond_scratch_->bonds;
-  if (!arrays.valid) arrays.assign(bonds_);
-
+  detail::BondScratch& scratch = *bond_scratch_;
+  detail::BondArrays& arrays = scratch.bonds;
+  detail::BondForceArrays& forces = scratch.forces;
   const std::size_t bond_count = bonds_.size();
-  for (std::size_t begin = 0; begin < bond_count; begin += detail::kBondChunk) {
-    const std::size_t count = std::min(detail::kBondChunk, bond_count - begin);
-    detail::bond_chunk_forces<kEffects, kShift, kCheckThresholds>(arrays, begin, count, x_.data(), y_.data(),
-                                                                  orient_c_.data(), orient_s_.data(), law, chunk);
-    const std::int32_t* bond_i = arrays.i.data() + begin;
-    const std::int32_t* bond_j = arrays.j.data() + begin;
-    for (std::size_t k = 0; k < count; ++k) {
-      if (chunk.exact[k]) [[unlikely]] {
-        any_broken |= bond_force_exact<kMask>(begin + k, exact_min_delta);
-        continue;
-      }
-      const std::int32_t i = bond_i[k], j = bond_j[k];
-      fx[i] += chunk.force_x[k];
-      fy[i] += chunk.force_y[k];
-      fx[j] -= chunk.force_x[k];
-      fy[j] -= chunk.force_y[k];
-      torque[i] += chunk.torque_i[k];
-      torque[j] += chunk.torque_j[k];
-      min_delta = std::min(min_delta, chunk.delta[k]);
-    }
+  if (!arrays.valid) arrays.assign(bonds_, size());
+  if (forces.state.size() != bond_count) {
+    for (auto* column : {&forces.force_x, &forces.force_y, &forces.torque_i, &forces.torque_j, &forces.delta})
+      column->resize(bond_count);
+    forces.state.resize(bond_count);
   }
-  min_delta_ = std::min(min_delta, exact_min_delta);
+
+  auto pass1 = [&](std::size_t begin, std::size_t count, double* out_fx, double* out_fy, double* out_ti, double* out_tj,
+                   double* out_delta, std::uint8_t* out_state) {
+    detail::bond_chunk_forces<kEffects, kShift, kCheckThresholds>(arrays, begin, count, x_.data(), y_.data(),
+                                                                  orient_c_.data(), orient_s_.data(), law, out_fx, out_fy,
+                                                                  out_ti, out_tj, out_delta, out_state);
+  };
+  double min_delta = min_delta_;
+  bool any_broken = false;
+  const std::size_t n = size();
+
+  if (!pool_) {
+    // One thread: each chunk's passes back to back while its results are in L1, the sums as a
+    // scatter in bond order, which adds to each particle in the same order as pass 3 would.
+    std::fill(fx_.begin(), fx_.end(), 0.0);
+    std::fill(fy_.begin(), fy_.end(), 0.0);
+    std::fill(torque_.begin(), torque_.end(), 0.0);
+    double* __restrict fx = fx_.data();
+    double* __restrict fy = fy_.data();
+    double* __restrict torque = torque_.data();
+    // A separate minimum for the exact path, whose address is taken, keeps this one in a register.
+    double exact_min_delta = min_delta;
+    detail::BondChunkForces& chunk = scratch.chunk;
+    for (std::size_t begin = 0; begin < bond_count; begin += detail::kBondChunk) {
+      const std::size_t count = std::min(detail::kBondChunk, bond_count - begin);
+      pass1(begin, count, chunk.force_x, chunk.force_y, chunk.torque_i, chunk.torque_j, chunk.delta, chunk.state);
+      for (std::size_t k = 0; k < count; ++k) {
+        if (chunk.state[k] == detail::BondForceArrays::kExact) [[unlikely]] {
+          // Pass 2 writes into the all-bond arrays; this bond's results are read from there.
+          const std::size_t b = begin + k;
+          if (bond_force_exact<kMask>(b, exact_min_delta)) {
+            any_broken = true;
+            continue;
+          }
+          chunk.force_x[k] = forces.force_x[b];
+          chunk.force_y[k] = forces.force_y[b];
+          chunk.torque_i[k] = forces.torque_i[b];
+          chunk.torque_j[k] = forces.torque_j[b];
+        } else {
+          min_delta = std::min(min_delta, chunk.delta[k]);
+        }
+        const std::int32_t i = arrays.i[begin + k], j = arrays.j[begin + k];
+        fx[i] += chunk.force_x[k];
+        fy[i] += chunk.force_y[k];
+        fx[j] -= chunk.force_x[k];
+        fy[j] -= chunk.force_y[k];
+        torque[i] += chunk.torque_i[k];
+        torque[j] += chunk.torque_j[k];
+      }
+    }
+    min_delta_ = std::min(min_delta, exact_min_delta);
+    if (any_broken) remove_marked_bonds();
+    return;
+  }
+
+  // Several threads: bigger tasks than the one-thread chunks (fewer hand-outs, no L1 reuse to keep).
+  constexpr std::size_t kTaskBonds = 8 * detail::kBondChunk;
+  const std::size_t tasks = (bond_count + kTaskBonds - 1) / kTaskBonds;
+  scratch.chunk_min_delta.resize(tasks);
+  parallel(tasks, [&](std::size_t chunk) {
+    const std::size_t begin = chunk * kTaskBonds, count = std::min(kTaskBonds, bond_count - begin);
+    pass1(begin, count, forces.force_x.data() + begin, forces.force_y.data() + begin, forces.torque_i.data() + begin,
+          forces.torque_j.data() + begin, forces.delta.data() + begin, forces.state.data() + begin);
+    scratch.chunk_min_delta[chunk] = detail::common_min_delta(forces, begin, count);
+  });
+  for (const double chunk_min : scratch.chunk_min_delta) min_delta = std::min(min_delta, chunk_min);
+  for (std::size_t b = 0; b < bond_count; ++b)
+    if (forces.state[b] == detail::BondForceArrays::kExact) [[unlikely]]
+      any_broken |= bond_force_exact<kMask>(b, min_delta);
+  parallel((n + detail::kParticleBlock - 1) / detail::kParticleBlock, [&](std::size_t block) {
+    const std::size_t begin = block * detail::kParticleBlock;
+    detail::sum_bond_forces(arrays, forces, begin, std::min(n, begin + detail::kParticleBlock), fx_.data(), fy_.data(),
+                            torque_.data());
+  });
+  min_delta_ = min_delta;
   if (any_broken) remove_marked_bonds();
 }
 
@@ -522,10 +575,7 @@ void System::collect_wall_forces() {
 WallStress System::wall_stress() const { return wall_stress_; }
 
 void System::compute_forces() {
-  std::fill(fx_.begin(), fx_.end(), 0.0);
-  std::fill(fy_.begin(), fy_.end(), 0.0);
-  std::fill(torque_.begin(), torque_.end(), 0.0);
-  dispatch_bond_forces();
+  dispatch_bond_forces();  // writes every particle's force and torque (from zero)
   if (!external_.empty()) apply_external_forces();
   if (walls_active_) collect_wall_forces();
   forces_valid_ = true;
@@ -579,19 +629,59 @@ detail::KickCoefficients System::kick_coefficients() const {
 
 template <bool kDragOn>
 void System::first_half_kick_and_drift() {
-  const detail::KickTotals totals = detail::kick_and_drift<kDragOn>(
-      size(), kick_coefficients(), x_.data(), y_.data(), orient_c_.data(), orient_s_.data(), vx_.data(), vy_.data(),
-      omega_.data(), fx_.data(), fy_.data(), torque_.data());
-  max_speed_sq_ = totals.max_speed_sq;
-  if constexpr (kDragOn) ledger_.drag += 0.5 * params_.dt * totals.drag_power;
+  const std::size_t n = size();
+  const std::size_t blocks = (n + detail::kParticleBlock - 1) / detail::kParticleBlock;
+  kick_totals_.resize(blocks);
+  const detail::KickCoefficients k = kick_coefficients();
+  parallel(blocks, [&](std::size_t block) {
+    const std::size_t begin = block * detail::kParticleBlock, count = std::min(detail::kParticleBlock, n - begin);
+    kick_totals_[block] = detail::kick_and_drift<kDragOn>(
+        count, k, x_.data() + begin, y_.data() + begin, orient_c_.data() + begin, orient_s_.data() + begin,
+        vx_.data() + begin, vy_.data() + begin, omega_.data() + begin, fx_.data() + begin, fy_.data() + begin,
+        torque_.data() + begin);
+  });
+  // Blocks combined in order: the same sum for any number of threads.
+  double max_speed_sq = 0, drag_power = 0;
+  for (const detail::KickTotals& totals : kick_totals_) {
+    max_speed_sq = std::max(max_speed_sq, totals.max_speed_sq);
+    drag_power += totals.drag_power;
+  }
+  max_speed_sq_ = max_speed_sq;
+  if constexpr (kDragOn) ledger_.drag += 0.5 * params_.dt * drag_power;
 }
 
 template <bool kDragOn>
 void System::second_half_kick() {
-  const double drag_power = detail::second_kick<kDragOn>(size(), kick_coefficients(), vx_.data(), vy_.data(),
-                                                         omega_.data(), fx_.data(), fy_.data(), torque_.data());
+  const std::size_t n = size();
+  const std::size_t blocks = (n + detail::kParticleBlock - 1) / detail::kParticleBlock;
+  kick_totals_.resize(blocks);
+  const detail::KickCoefficients k = kick_coefficients();
+  parallel(blocks, [&](std::size_t block) {
+    const std::size_t begin = block * detail::kParticleBlock, count = std::min(detail::kParticleBlock, n - begin);
+    kick_totals_[block].drag_power = detail::second_kick<kDragOn>(count, k, vx_.data() + begin, vy_.data() + begin,
+                                                                  omega_.data() + begin, fx_.data() + begin,
+                                                                  fy_.data() + begin, torque_.data() + begin);
+  });
+  double drag_power = 0;
+  for (const detail::KickTotals& totals : kick_totals_) drag_power += totals.drag_power;
   if constexpr (kDragOn) ledger_.drag += 0.5 * params_.dt * drag_power;
 }
+
+template <class Task>
+void System::parallel(std::size_t tasks, Task&& task) {
+  if (pool_)
+    pool_->run(tasks, task);
+  else
+    for (std::size_t t = 0; t < tasks; ++t) task(t);
+}
+
+void System::set_threads(int threads) {
+  if (threads < 1) throw InvalidArgument("threads", "must be >= 1");
+  if (threads == this->threads()) return;
+  pool_ = threads == 1 ? nullptr : std::make_unique<detail::WorkerPool>(threads);
+}
+
+int System::threads() const { return pool_ ? pool_->threads() : 1; }
 
 void System::step() {
   if (!forces_valid_) compute_forces();

@@ -136,7 +136,28 @@ TEST(CompressionScene, PaperPresetsCarryTheReferenceValues) {
   const gel::v1::Scene resolved = resolve_compression_scene(scene);
   EXPECT_EQ(resolved.compression().m_exam(), 1234);
   EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(scene_from_json(scene_to_json(resolved)), resolved));
-  EXPECT_EQ(scene_preset_names().size(), 3u);
+  EXPECT_EQ(scene_preset_names().size(), 7u);
+}
+
+// The larger presets are the paper's box scaled in both directions: same phi_0, aspect ratio,
+// floc size and bond law, 4x (16x) the clusters.
+TEST(CompressionScene, LargerPresetsScaleThePaperBox) {
+  for (const char* bond : {"bond1", "bond2"}) {
+    const std::string base = std::string("paper-") + bond;
+    const gel::v1::Scene paper = resolve_compression_scene(scene_preset(base));
+    for (const auto& [suffix, scale] : {std::pair<std::string, int>{"-4x", 2}, {"-16x", 4}}) {
+      const gel::v1::Scene large = resolve_compression_scene(scene_preset(base + suffix));
+      EXPECT_EQ(large.bond().preset(), bond);
+      EXPECT_EQ(large.generator().lx(), scale * paper.generator().lx()) << base + suffix;
+      EXPECT_EQ(large.generator().ly(), scale * paper.generator().ly()) << base + suffix;
+      EXPECT_EQ(large.generator().n_floc(), paper.generator().n_floc());
+      EXPECT_EQ(large.generator().n_clusters(), scale * scale * paper.generator().n_clusters());
+      EXPECT_EQ(large.compression().fidelity(), "paper");
+      EXPECT_EQ(large.compression().v_wall(), paper.compression().v_wall());
+    }
+  }
+  EXPECT_THROW(scene_preset("paper-bond3-4x"), InvalidArgument);
+  EXPECT_THROW(scene_preset("quick-4x"), InvalidArgument);
 }
 
 // Each criterion alone withholds equilibrium; a broken bond delays it even when the stresses

@@ -19,7 +19,9 @@ namespace gel {
 
 namespace detail {
 struct KickCoefficients;
-struct BondChunkScratch;
+struct KickTotals;
+struct BondScratch;
+class WorkerPool;
 }
 
 struct SimParams {
@@ -119,6 +121,11 @@ class System {
   void step();
   void run(std::int64_t steps);
 
+  // Threads for the bond loop and the integrator. Results are bit-identical for any number:
+  // every sum is made in the same order (bond_kernels.hpp, fixed particle blocks).
+  void set_threads(int threads);
+  int threads() const;
+
   std::size_t size() const { return x_.size(); }
   const SimParams& params() const { return params_; }
   double time() const { return time_; }
@@ -208,6 +215,8 @@ class System {
   void first_half_kick_and_drift();
   template <bool kDragOn>
   void second_half_kick();
+  template <class Task>
+  void parallel(std::size_t tasks, Task&& task);
   void dispatch_bond_forces();
   void maybe_rebuild();
   void rebuild_neighbours();
@@ -236,7 +245,10 @@ class System {
   std::vector<std::uint8_t> bond_marked_;  // scratch: bonds broken this step
   // The bond loop's scratch: its mirror of bonds_ as arrays (invalidated by every change of
   // bonds_) and one chunk's forces. Never part of the saved state.
-  std::unique_ptr<detail::BondChunkScratch> bond_scratch_;
+  std::unique_ptr<detail::BondScratch> bond_scratch_;
+  // The run's threads (null: one). Not part of the saved state: results do not depend on it.
+  std::unique_ptr<detail::WorkerPool> pool_;
+  std::vector<detail::KickTotals> kick_totals_;  // per particle block, combined in order
 
   struct Candidate {
     std::int32_t i, j;

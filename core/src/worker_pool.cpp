@@ -1,0 +1,93 @@
+#include "worker_pool.hpp"
+
+#include <stdexcept>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
+namespace gel::detail {
+
+namespace {
+inline void cpu_relax() {
+#if defined(__x86_64__)
+  _mm_pause();
+#endif
+}
+// About 10-20 microseconds of spinning before a thread yields or sleeps: longer than the gaps
+// between the parallel regions of a step, far shorter than a chunk of serial work.
+constexpr int kSpinsBeforeSleep = 4000;
+constexpr std::uint64_t kTaskBits = 32;
+constexpr std::uint64_t kTaskMask = (std::uint64_t{1} << kTaskBits) - 1;
+}  // namespace
+
+WorkerPool::WorkerPool(int threads) : threads_(threads) {
+  if (threads < 1) throw std::invalid_argument("threads must be >= 1");
+  for (int rank = 1; rank < threads; ++rank) workers_.emplace_back([this] { worker(); });
+}
+
+WorkerPool::~WorkerPool() {
+  quit_.store(true);
+  generation_.fetch_add(1);
+  generation_.notify_all();
+  for (auto& thread : workers_) thread.join();
+}
+
+void WorkerPool::share(std::uint64_t generation) {
+  const std::uint64_t tag = (generation & kTaskMask) << kTaskBits;
+  std::uint64_t claim = next_task_.load(std::memory_order_acquire);
+  for (;;) {
+    if ((claim & ~kTaskMask) != tag) return;  // another region by now
+    const std::size_t task = static_cast<std::size_t>(claim & kTaskMask);
+    if (task >= tasks_.load(std::memory_order_acquire)) return;
+    if (!next_task_.compare_exchange_weak(claim, claim + 1, std::memory_order_acq_rel)) continue;
+    // The claim succeeded, so this region cannot end before the task is done: fn_ is its own.
+    fn_(context_, task);
+    tasks_done_.fetch_add(1, std::memory_order_release);
+    claim = next_task_.load(std::memory_order_acquire);
+  }
+}
+
+void WorkerPool::run_erased(std::size_t tasks, void (*fn)(void*, std::size_t), void* context) {
+  if (tasks > kTaskMask) throw std::length_error("too many tasks in one parallel region");
+  const std::uint64_t generation = generation_.load(std::memory_order_relaxed) + 1;
+  const std::uint64_t tag = (generation & kTaskMask) << kTaskBits;
+  // Closed first: a worker still holding a claim of the last region now fails its exchange, so
+  // it never runs a task with the fields being rewritten below.
+  next_task_.store(tag | kTaskMask, std::memory_order_release);
+  fn_ = fn;
+  context_ = context;
+  tasks_.store(tasks, std::memory_order_release);
+  tasks_done_.store(0, std::memory_order_relaxed);
+  next_task_.store(tag, std::memory_order_release);
+  generation_.store(generation, std::memory_order_release);
+  generation_.notify_all();
+  share(generation);
+  int spins = 0;
+  while (tasks_done_.load(std::memory_order_acquire) < tasks) {
+    if (++spins < kSpinsBeforeSleep)
+      cpu_relax();
+    else
+      std::this_thread::yield();
+  }
+}
+
+void WorkerPool::worker() {
+  std::uint64_t seen = generation_.load();
+  for (;;) {
+    int spins = 0;
+    std::uint64_t now = generation_.load(std::memory_order_acquire);
+    while (now == seen) {
+      if (++spins < kSpinsBeforeSleep)
+        cpu_relax();
+      else
+        generation_.wait(seen);
+      now = generation_.load(std::memory_order_acquire);
+    }
+    seen = now;
+    if (quit_.load()) return;
+    share(now);
+  }
+}
+
+}  // namespace gel::detail
