@@ -52,6 +52,10 @@ VARIANTS = {
     # The preset's walls speed up to x10 (as in "default"); this control keeps the paper's
     # constant wall speed, so that a difference to "paper" is the relaxation's alone.
     "quasistatic-constant-walls": {"fidelity": "quasistatic", "adaptive_wall_max_factor": 1},
+    # The quasi-static walls also jump the top wall's group from contact to contact until the
+    # network spans; "paper" walks the walls through the liquid. This control walks them too
+    # (paper wall speed, no shortcut), so that its difference to "paper" is FIRE's alone.
+    "quasistatic-paper-walls": {"fidelity": "quasistatic", "adaptive_wall_max_factor": 1, "approach_shortcut": False},
 }
 REFERENCE = "paper"
 DEFAULT_VARIANTS = ("quasistatic", "paper")
@@ -71,6 +75,8 @@ def scene_for(gel, fidelity, seed):
     scene["compression"] = {"fidelity": variant["fidelity"]}
     if "adaptive_wall_max_factor" in variant:
         scene["compression"]["adaptive_wall_max_factor"] = variant["adaptive_wall_max_factor"]
+    if "approach_shortcut" in variant:
+        scene["compression"]["approach_shortcut"] = variant["approach_shortcut"]
     if "wall_factor" in variant:
         bond = "bond2" if gel.endswith("bond2") else "bond1"
         scene["compression"]["v_wall_v0"] = variant["wall_factor"] * REFERENCE_WALL_SPEED[bond]
