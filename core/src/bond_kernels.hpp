@@ -95,6 +95,30 @@ struct BondScratch {
   std::vector<double> chunk_min_delta;  // pass 1: smallest gap of a common bond, per chunk
 };
 
+// n and the gap of a bond from the separation r_j - r_i (image shift included); the contact
+// directions are filled in by the caller. Shared by pass 1 and the exact path, so both compute
+// the same bits.
+[[gnu::always_inline]] inline BondGeometry line_of_centres(double dx, double dy) {
+  const double r = std::sqrt(dx * dx + dy * dy);
+  const double inv_r = 1.0 / r;
+  BondGeometry g;
+  g.nx = dx * inv_r;
+  g.ny = dy * inv_r;
+  g.delta = r - kDiameter;
+  return g;
+}
+
+// What the sum pass needs of one bond: the force on i (on j: opposite) and both torques.
+struct BondOutput {
+  double force_x, force_y, torque_i, torque_j;
+};
+[[gnu::always_inline]] inline BondOutput bond_output(const BondForces& f, const BondGeometry& g) {
+  // a n x F_T acts on both particles (on j: (-a n) x (-F_T)).
+  const double sliding_torque = kRadius * (g.nx * f.sliding_y - g.ny * f.sliding_x);
+  return {f.normal_force * g.nx + f.sliding_x, f.normal_force * g.ny + f.sliding_y, f.rolling_moment + sliding_torque,
+          -f.rolling_moment + sliding_torque};
+}
+
 // Pass 1 over bonds [begin, begin + count), into the out_* arrays (offset to begin already).
 // The outputs are restrict parameters: GCC honours restrict on parameters, not on local pointers,
 // and without it the loop needs more run-time alias checks than it will version for.
@@ -122,12 +146,7 @@ GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begi
       dx += shift_x[k];
       dy += shift_y[k];
     }
-    const double r = std::sqrt(dx * dx + dy * dy);
-    const double inv_r = 1.0 / r;
-    BondGeometry g;
-    g.nx = dx * inv_r;
-    g.ny = dy * inv_r;
-    g.delta = r - kDiameter;
+    BondGeometry g = line_of_centres(dx, dy);
     bool exact = false;
     if constexpr (Evaluator::needs_contact_points()) {
       g.xi_ix = c[i] * bix[k] - s[i] * biy[k];
@@ -142,12 +161,11 @@ GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begi
       exact = exact | (f.normal_force > law.f_normal_critical) | (ft_sq > f_sliding_sq) |
               (std::abs(f.rolling_moment) > law.m_rolling_critical);
     }
-    out_fx[k] = f.normal_force * g.nx + f.sliding_x;
-    out_fy[k] = f.normal_force * g.ny + f.sliding_y;
-    // a n x F_T acts on both particles (on j: (-a n) x (-F_T)).
-    const double sliding_torque = kRadius * (g.nx * f.sliding_y - g.ny * f.sliding_x);
-    out_ti[k] = f.rolling_moment + sliding_torque;
-    out_tj[k] = -f.rolling_moment + sliding_torque;
+    const BondOutput o = bond_output(f, g);
+    out_fx[k] = o.force_x;
+    out_fy[k] = o.force_y;
+    out_ti[k] = o.torque_i;
+    out_tj[k] = o.torque_j;
     out_delta[k] = g.delta;
     out_state[k] = static_cast<std::uint8_t>(exact);  // kCommon or kExact
   }

@@ -404,12 +404,7 @@ bool System::bond_force_exact(std::size_t b, double& min_delta) {
     dx += bond.shift_x;
     dy += bond.shift_y;
   }
-  const double r = std::sqrt(dx * dx + dy * dy);
-  const double inv_r = 1.0 / r;
-  BondGeometry g;
-  g.nx = dx * inv_r;
-  g.ny = dy * inv_r;
-  g.delta = r - kDiameter;
+  BondGeometry g = detail::line_of_centres(dx, dy);
   if constexpr (Evaluator::needs_contact_points()) {
     to_lab(orient_c_[i], orient_s_[i], bond.bix, bond.biy, g.xi_ix, g.xi_iy);
     to_lab(orient_c_[j], orient_s_[j], bond.bjx, bond.bjy, g.xi_jx, g.xi_jy);
@@ -426,11 +421,11 @@ bool System::bond_force_exact(std::size_t b, double& min_delta) {
       f.sliding_x = f.sliding_y = f.rolling_moment = 0.0;
     }
   }
-  out.force_x[b] = f.normal_force * g.nx + f.sliding_x;
-  out.force_y[b] = f.normal_force * g.ny + f.sliding_y;
-  const double sliding_torque = kRadius * (g.nx * f.sliding_y - g.ny * f.sliding_x);
-  out.torque_i[b] = f.rolling_moment + sliding_torque;
-  out.torque_j[b] = -f.rolling_moment + sliding_torque;
+  const detail::BondOutput o = detail::bond_output(f, g);
+  out.force_x[b] = o.force_x;
+  out.force_y[b] = o.force_y;
+  out.torque_i[b] = o.torque_i;
+  out.torque_j[b] = o.torque_j;
   min_delta = std::min(min_delta, g.delta);
   return false;
 }
