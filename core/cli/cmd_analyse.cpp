@@ -1,7 +1,7 @@
 // gelsim analyze / analyze-run / snapshot: structure analyses of configurations and compression
 // runs (README "Analysis and pictures"). "analyse" spellings are accepted as aliases.
 //   gelsim analyze CONFIG... [--json] [--pixel 0.25] [--fit-range 2,10] [--window 0.1]
-//   gelsim analyze-run DIR... [--json] [--fit-range PHIMIN,PHIMAX] [--no-structure]
+//   gelsim analyze-run DIR... [--json] [--fit-range PHIMIN,PHIMAX] [--no-structure] [--include-unequilibrated]
 //   gelsim snapshot CONFIG --out file.png|file.svg [--xi] [--size 1200] [--no-bonds]
 #include <cstdio>
 #include <iostream>
@@ -114,6 +114,7 @@ struct AnalyzeRunOptions {
   double pixel = gel::analysis::kDefaultPixel;
   std::string fit_range, r_fit_range;
   bool no_structure = false;
+  bool include_unequilibrated = false;
 };
 
 int run_analyze_run(const AnalyzeRunOptions& o) {
@@ -121,6 +122,7 @@ int run_analyze_run(const AnalyzeRunOptions& o) {
   options.structure = structure_options(o.pixel, o.r_fit_range, gel::analysis::kDefaultDfHalfWindow);
   if (!o.fit_range.empty()) std::tie(options.fit_phi_min, options.fit_phi_max) = parse_range("fit_range", o.fit_range);
   options.structures = !o.no_structure;
+  options.include_unequilibrated = o.include_unequilibrated;
   const gel::analysis::RunAnalysis run = gel::analysis::analyse_runs(o.dirs, options);
   if (o.json) {
     std::cout << gel::analysis::to_json(run).dump() << "\n";
@@ -128,15 +130,21 @@ int run_analyze_run(const AnalyzeRunOptions& o) {
   }
   const auto& ca = run.curve;
   std::printf("runs %d, rows %zu\n", ca.ensemble.members, ca.ensemble.rows.at("phi").mean.size());
+  for (const auto& row : ca.excluded_rows)
+    std::printf("left out   k %2d phi %.4f: %s\n", row.k, row.phi, row.reason.c_str());
+  if (!ca.excluded_rows.empty())
+    std::printf("           (fits and regimes use %zu rows; --include-unequilibrated takes back the spanning ones)\n",
+                ca.fit_rows.size());
   if (ca.power_law)
-    std::printf("power law   P = %.4g phi^lambda, lambda = %.3f +- %.3f (phi %.3f..%.3f, %d points)\n", ca.power_law->prefactor,
+    std::printf("power law   P = %.4g phi^lambda, lambda = %.3f +- %.3f (phi %.3f..%.3f, %d points%s)\n", ca.power_law->prefactor,
                 ca.power_law->exponent, ca.power_law->exponent_stderr, ca.power_law->x_min, ca.power_law->x_max,
-                ca.power_law->points);
+                ca.power_law->points, ca.power_law->dropped ? (", " + std::to_string(ca.power_law->dropped) + " with P <= 0 left out").c_str() : "");
   else
     std::printf("power law   %s\n", ca.power_law_error.c_str());
   if (ca.gel_point)
-    std::printf("gel point   P = %.4g (phi - %.4f +- %.4f)^(%.3f +- %.3f)%s\n", ca.gel_point->prefactor, ca.gel_point->phi_g,
-                ca.gel_point->phi_g_stderr, ca.gel_point->exponent, ca.gel_point->exponent_stderr,
+    std::printf("gel point   P = %.4g (phi - %.4f +- %.4f)^(%.3f +- %.3f) (phi %.3f..%.3f, %d points)%s\n", ca.gel_point->prefactor,
+                ca.gel_point->phi_g, ca.gel_point->phi_g_stderr, ca.gel_point->exponent, ca.gel_point->exponent_stderr,
+                ca.gel_point->x_min, ca.gel_point->x_max, ca.gel_point->points,
                 ca.gel_point->phi_g_at_bound ? "  (phi_g on its bound: the data fix no gel point)" : "");
   else
     std::printf("gel point   %s\n", ca.gel_point_error.c_str());
@@ -168,6 +176,8 @@ const gelsim::Registrar analyze_run_registrar{
       sub.add_option("--r-fit-range", o->r_fit_range, "RMIN,RMAX [a] of the D_f fit of each snapshot (default 2,10)");
       sub.add_option("--pixel", o->pixel, "pixel size [a] (default 0.25)");
       sub.add_flag("--no-structure", o->no_structure, "curve analyses only, no snapshots");
+      sub.add_flag("--include-unequilibrated", o->include_unequilibrated,
+                   "fit and split rows that did not reach equilibrium too (default: only rows every member equilibrated)");
       return [o] { return run_analyze_run(*o); };
     }};
 

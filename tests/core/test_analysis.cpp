@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -508,12 +509,84 @@ TEST(RunAnalysis, FitsLeaveOutRowsThatAreNotAnEquilibriumYieldStress) {
   const CurveAnalysis a = analyse_curves({curve}, RunAnalysisOptions{});
   ASSERT_TRUE(a.power_law.has_value());
   EXPECT_NEAR(a.power_law->exponent, 3.0, 1e-9);
+  // Every left-out row is named with its reason, and the fit states the range it really used.
+  ASSERT_EQ(a.excluded_rows.size(), 4u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(a.excluded_rows[i].k, i + 1);
+    EXPECT_EQ(a.excluded_rows[i].reason, "not equilibrated");
+  }
+  EXPECT_EQ(a.excluded_rows[3].reason, "network does not span");
+  EXPECT_EQ(a.fit_rows.front(), 5);
+  EXPECT_DOUBLE_EQ(a.power_law->x_min, curve.rows(5).phi());
+  EXPECT_DOUBLE_EQ(a.power_law->x_max, curve.rows(curve.rows_size() - 1).phi());
+  EXPECT_EQ(a.power_law->points, curve.rows_size() - 5);
+  EXPECT_FALSE(a.mean_curve.rows(1).equilibrated());
+  EXPECT_TRUE(a.mean_curve.rows(5).equilibrated());
+  // The regime split skips the intervals that touch a left-out row (rows 0-5: 5 intervals).
+  ASSERT_EQ(a.increment_trusted.size(), a.increments.size());
+  EXPECT_EQ(std::count(a.increment_trusted.begin(), a.increment_trusted.end(), false), 5);
+  EXPECT_EQ(a.regimes.assigned.size(), a.increments.size() - 5);
+  const nlohmann::json j = to_json(a);
+  EXPECT_EQ(j["excluded_rows"].size(), 4u);
+  EXPECT_TRUE(j["regimes"]["intervals"][0]["regime"].is_null());
+  // Asked for explicitly, the unequilibrated rows come back; the one that does not span stays out.
+  RunAnalysisOptions include;
+  include.include_unequilibrated = true;
+  const CurveAnalysis included = analyse_curves({curve}, include);
+  ASSERT_EQ(included.excluded_rows.size(), 1u);
+  EXPECT_EQ(included.excluded_rows[0].k, 4);
+  ASSERT_TRUE(included.power_law.has_value());
+  EXPECT_LT(included.power_law->exponent, 2.9);
+  // Two members, one of them wait-limited at row 2: the row is out, and the reason counts members.
+  gel::v1::Curve clean = planted_curve(), limited = planted_curve();
+  limited.mutable_rows(2)->set_equilibrated(false);
+  const CurveAnalysis pair = analyse_curves({clean, limited}, RunAnalysisOptions{});
+  ASSERT_EQ(pair.excluded_rows.size(), 1u);
+  EXPECT_EQ(pair.excluded_rows[0].reason, "not equilibrated in 1 of 2 members");
   // The same rows trusted: the fit is visibly off.
   for (int k : {1, 2, 3}) curve.mutable_rows(k)->set_equilibrated(true);
   curve.mutable_rows(4)->set_spans(true);
   const CurveAnalysis biased = analyse_curves({curve}, RunAnalysisOptions{});
   ASSERT_TRUE(biased.power_law.has_value());
   EXPECT_LT(biased.power_law->exponent, 2.5);
+}
+
+TEST(Fits, PointsWithNonPositiveStressAreCountedNotHidden) {
+  // P = phi^2 on 6 points, two of them zero or negative (a row at rest under noise): the fit
+  // keeps the planted law, says it left 2 points out, and reports the range of the points used.
+  const std::vector<double> phi = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6};
+  std::vector<double> p;
+  for (double x : phi) p.push_back(x * x);
+  p[0] = 0.0, p[5] = -1e-3;
+  const PowerLawFit fit = fit_power_law(phi, p, 0.0, 1.0);
+  EXPECT_NEAR(fit.exponent, 2.0, 1e-12);
+  EXPECT_EQ(fit.points, 4);
+  EXPECT_EQ(fit.dropped, 2);
+  EXPECT_DOUBLE_EQ(fit.x_min, 0.2);
+  EXPECT_DOUBLE_EQ(fit.x_max, 0.5);
+  EXPECT_DOUBLE_EQ(fit.requested_min, 0.0);
+  EXPECT_DOUBLE_EQ(fit.requested_max, 1.0);
+}
+
+TEST(Ensemble, ProfilesOnDifferentRadiiAreAveragedAtEqualR) {
+  // Two members sample the same line C(r) = 2 + 3r on shifted radii. Element by element their
+  // mean would be 3/2 too high in every bin; interpolated onto common radii it is the line
+  // itself with zero spread, over the range both cover.
+  const std::vector<std::vector<double>> radii = {{0.0, 1.0, 2.0, 3.0, 4.0}, {0.5, 1.5, 2.5, 3.5}};
+  std::vector<std::vector<double>> values;
+  for (const auto& r : radii) {
+    std::vector<double> v;
+    for (double x : r) v.push_back(2 + 3 * x);
+    values.push_back(v);
+  }
+  std::vector<double> grid;
+  const MeanStd m = mean_on_common_radii(radii, values, grid);
+  EXPECT_EQ(grid, (std::vector<double>{1.0, 2.0, 3.0}));
+  ASSERT_EQ(m.mean.size(), 3u);
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    EXPECT_NEAR(m.mean[i], 2 + 3 * grid[i], 1e-12);
+    EXPECT_NEAR(m.std[i], 0.0, 1e-12);
+  }
 }
 
 TEST(RunAnalysis, DirectoryWithCurveAndSnapshotsGivesFitsStructureAndPictures) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 
 #include "gel/errors.hpp"
 
@@ -100,6 +101,47 @@ MeanStd mean_std(const std::vector<std::vector<double>>& members) {
     result.std[i] = members.size() > 1 ? std::sqrt(squares / (n - 1)) : 0.0;
   }
   return result;
+}
+
+namespace {
+
+std::vector<double> common_radii(const std::vector<std::vector<double>>& radii) {
+  double lo = 0, hi = std::numeric_limits<double>::infinity();
+  for (const auto& r : radii) {
+    if (r.empty()) return {};
+    lo = std::max(lo, r.front());
+    hi = std::min(hi, r.back());
+  }
+  std::vector<double> grid;
+  for (double r : radii[0])
+    if (r >= lo && r <= hi) grid.push_back(r);
+  return grid;
+}
+
+std::vector<double> resample(const std::vector<double>& r, const std::vector<double>& values, const std::vector<double>& grid) {
+  std::vector<double> out;
+  out.reserve(grid.size());
+  std::size_t j = 0;
+  for (double g : grid) {
+    while (j + 2 < r.size() && r[j + 1] < g) ++j;
+    if (r.size() == 1 || g <= r[j]) {
+      out.push_back(values[j]);
+      continue;
+    }
+    const double t = (g - r[j]) / (r[j + 1] - r[j]);
+    out.push_back(values[j] + std::clamp(t, 0.0, 1.0) * (values[j + 1] - values[j]));
+  }
+  return out;
+}
+
+}  // namespace
+
+MeanStd mean_on_common_radii(const std::vector<std::vector<double>>& radii, const std::vector<std::vector<double>>& values,
+                             std::vector<double>& grid) {
+  grid = common_radii(radii);
+  std::vector<std::vector<double>> resampled;
+  for (std::size_t m = 0; m < radii.size(); ++m) resampled.push_back(resample(radii[m], values[m], grid));
+  return mean_std(resampled);
 }
 
 OptionalMeanStd mean_std(const std::vector<std::optional<double>>& values) {

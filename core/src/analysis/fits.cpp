@@ -11,13 +11,27 @@
 namespace gel::analysis {
 namespace {
 
-void usable_points(const std::vector<double>& x, const std::vector<double>& y, double x_min, double x_max,
-                   std::vector<double>& xs, std::vector<double>& ys) {
+// A log-space fit cannot take y <= 0; such points are counted, so that a fit never hides them.
+int usable_points(const std::vector<double>& x, const std::vector<double>& y, double x_min, double x_max,
+                  std::vector<double>& xs, std::vector<double>& ys) {
   if (x.size() != y.size()) throw InvalidArgument("fit", "x and y differ in length");
   if (!(x_min <= x_max)) throw InvalidArgument("fit_range", "minimum above maximum");
-  for (std::size_t i = 0; i < x.size(); ++i)
-    if (x[i] >= x_min && x[i] <= x_max && x[i] > 0 && y[i] > 0 && std::isfinite(x[i]) && std::isfinite(y[i]))
-      xs.push_back(x[i]), ys.push_back(y[i]);
+  int dropped = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (!(x[i] >= x_min && x[i] <= x_max)) continue;
+    if (x[i] > 0 && y[i] > 0 && std::isfinite(x[i]) && std::isfinite(y[i])) xs.push_back(x[i]), ys.push_back(y[i]);
+    else ++dropped;
+  }
+  return dropped;
+}
+
+template <class Fit>
+void record_range(Fit& fit, const std::vector<double>& xs, double x_min, double x_max, int dropped) {
+  fit.requested_min = x_min, fit.requested_max = x_max;
+  fit.x_min = *std::min_element(xs.begin(), xs.end());
+  fit.x_max = *std::max_element(xs.begin(), xs.end());
+  fit.points = static_cast<int>(xs.size());
+  fit.dropped = dropped;
 }
 
 struct Line {
@@ -52,7 +66,7 @@ Line ols(const std::vector<double>& u, const std::vector<double>& v) {
 
 PowerLawFit fit_power_law(const std::vector<double>& x, const std::vector<double>& y, double x_min, double x_max) {
   std::vector<double> xs, ys;
-  usable_points(x, y, x_min, x_max, xs, ys);
+  const int dropped = usable_points(x, y, x_min, x_max, xs, ys);
   if (xs.size() < 2) throw InvalidArgument("fit_range", "fewer than 2 points with x, y > 0 in the fit range");
   std::vector<double> u(xs.size()), v(xs.size());
   for (std::size_t i = 0; i < xs.size(); ++i) u[i] = std::log(xs[i]), v[i] = std::log(ys[i]);
@@ -63,15 +77,14 @@ PowerLawFit fit_power_law(const std::vector<double>& x, const std::vector<double
   fit.prefactor = std::exp(line.intercept);
   fit.exponent_stderr = line.slope_stderr;
   fit.log_prefactor_stderr = line.intercept_stderr;
-  fit.x_min = x_min, fit.x_max = x_max;
-  fit.points = static_cast<int>(xs.size());
+  record_range(fit, xs, x_min, x_max, dropped);
   fit.rms_log_residual = std::sqrt(line.rss / xs.size());
   return fit;
 }
 
 GelPointFit fit_gel_point(const std::vector<double>& phi, const std::vector<double>& p, double x_min, double x_max) {
   std::vector<double> xs, ys;
-  usable_points(phi, p, x_min, x_max, xs, ys);
+  const int dropped = usable_points(phi, p, x_min, x_max, xs, ys);
   if (xs.size() < 4) throw InvalidArgument("fit_range", "the gel-point fit needs at least 4 points with phi, P > 0");
   const int n = static_cast<int>(xs.size());
   const double phi_lowest = *std::min_element(xs.begin(), xs.end());
@@ -154,8 +167,7 @@ GelPointFit fit_gel_point(const std::vector<double>& phi, const std::vector<doub
   } else {
     fit.log_prefactor_stderr = fit.phi_g_stderr = fit.exponent_stderr = std::numeric_limits<double>::quiet_NaN();
   }
-  fit.x_min = x_min, fit.x_max = x_max;
-  fit.points = n;
+  record_range(fit, xs, x_min, x_max, dropped);
   fit.rms_log_residual = std::sqrt(cost / n);
   return fit;
 }

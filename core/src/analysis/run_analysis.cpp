@@ -51,17 +51,36 @@ CurveAnalysis analyse_curves(const std::vector<gel::v1::Curve>& curves, const Ru
   CurveAnalysis a;
   a.ensemble = curve_ensemble(curves);
   a.mean_curve = mean_curve(curves, a.ensemble);
+  const int members = static_cast<int>(curves.size());
   // Fits trust only rows that every member reached at equilibrium with a spanning network: a
   // wait-limited row is the stress at an arbitrary time, and a row that does not span carries
   // drag, not a yield stress. Row 0 is the unloaded start.
+  std::vector<bool> trusted(a.mean_curve.rows_size(), true);
   std::vector<double> phi, p;
-  for (int k = 1; k < a.mean_curve.rows_size(); ++k) {
-    bool trusted = true;
-    for (const gel::v1::Curve& curve : curves)
-      trusted = trusted && k < curve.rows_size() && curve.rows(k).equilibrated() && curve.rows(k).spans();
-    if (!trusted) continue;
-    phi.push_back(a.mean_curve.rows(k).phi());
-    p.push_back(a.mean_curve.rows(k).p());
+  for (int k = 0; k < a.mean_curve.rows_size(); ++k) {
+    int unequilibrated = 0, not_spanning = 0;
+    for (const gel::v1::Curve& curve : curves) {
+      unequilibrated += !curve.rows(k).equilibrated();
+      not_spanning += !curve.rows(k).spans();
+    }
+    auto* row = a.mean_curve.mutable_rows(k);
+    row->set_equilibrated(unequilibrated == 0);
+    row->set_spans(not_spanning == 0);
+    if (k == 0) continue;
+    std::string reason;
+    auto of_members = [&](int n) {
+      return members == 1 ? std::string() : " in " + std::to_string(n) + " of " + std::to_string(members) + " members";
+    };
+    if (not_spanning > 0) reason = "network does not span" + of_members(not_spanning);
+    else if (unequilibrated > 0 && !options.include_unequilibrated) reason = "not equilibrated" + of_members(unequilibrated);
+    if (!reason.empty()) {
+      trusted[k] = false;
+      a.excluded_rows.push_back({row->k(), row->phi(), reason});
+      continue;
+    }
+    a.fit_rows.push_back(row->k());
+    phi.push_back(row->phi());
+    p.push_back(row->p());
   }
   double lo = options.fit_phi_min, hi = options.fit_phi_max;
   if (lo <= 0 && hi <= 0) {
@@ -70,18 +89,26 @@ CurveAnalysis analyse_curves(const std::vector<gel::v1::Curve>& curves, const Ru
   } else if (hi <= 0) {
     hi = phi.empty() ? 0.0 : phi.back();
   }
+  const std::string left_out =
+      a.excluded_rows.empty() ? "" : " (" + std::to_string(a.excluded_rows.size()) + " untrusted rows left out)";
   try {
     a.power_law = fit_power_law(phi, p, lo, hi);
   } catch (const InvalidArgument& error) {
-    a.power_law_error = error.what();
+    a.power_law_error = error.what() + left_out;
   }
   try {
     a.gel_point = fit_gel_point(phi, p, lo, hi);
   } catch (const InvalidArgument& error) {
-    a.gel_point_error = error.what();
+    a.gel_point_error = error.what() + left_out;
   }
   a.increments = curve_increments(a.mean_curve);
-  a.regimes = split_regimes(a.increments, options.multi_mode_fraction);
+  std::vector<Increment> trusted_increments;
+  for (const Increment& inc : a.increments) {
+    const bool ok = inc.row >= 1 && inc.row < static_cast<int>(trusted.size()) && trusted[inc.row] && trusted[inc.row - 1];
+    a.increment_trusted.push_back(ok);
+    if (ok) trusted_increments.push_back(inc);
+  }
+  a.regimes = split_regimes(trusted_increments, options.multi_mode_fraction);
   return a;
 }
 
@@ -98,7 +125,7 @@ RunAnalysis analyse_runs(const std::vector<std::string>& dirs, const RunAnalysis
     RowStructure row;
     row.k = run.curve.mean_curve.rows(k).k();
     row.phi = run.curve.mean_curve.rows(k).phi();
-    std::vector<std::vector<double>> c_members, df_members;
+    std::vector<std::vector<double>> c_members, df_members, r_c_members, r_df_members;
     std::vector<std::optional<double>> df_fits, xis;
     const auto start = std::chrono::steady_clock::now();
     for (std::size_t m = 0; m < dirs.size(); ++m) {
@@ -108,7 +135,8 @@ RunAnalysis analyse_runs(const std::vector<std::string>& dirs, const RunAnalysis
       if (!std::filesystem::exists(path)) continue;
       const StructureAnalysis s = analyse_structure(read_configuration(path), options.structure);
       row.snapshots.push_back(path);
-      if (row.r_c.empty()) row.r_c = s.correlation.r, row.r_df = s.df_profile.r;
+      r_c_members.push_back(s.correlation.r);
+      r_df_members.push_back(s.df_profile.r);
       c_members.push_back(s.correlation.c);
       df_members.push_back(s.df_profile.df);
       df_fits.push_back(s.df_fit ? std::optional<double>(s.df_fit->df) : std::nullopt);
@@ -116,12 +144,8 @@ RunAnalysis analyse_runs(const std::vector<std::string>& dirs, const RunAnalysis
     }
     if (row.snapshots.empty()) continue;
     row.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    // The walls move, so bins differ between rows but not between members of one row (same
-    // schedule, same box): the element-wise mean is over equal radii.
-    row.c = mean_std(c_members);
-    row.df = mean_std(df_members);
-    row.r_c.resize(row.c.mean.size());
-    row.r_df.resize(row.df.mean.size());
+    row.c = mean_on_common_radii(r_c_members, c_members, row.r_c);
+    row.df = mean_on_common_radii(r_df_members, df_members, row.r_df);
     row.df_fit = mean_std(df_fits);
     row.xi_05 = mean_std(xis);
     if (row.xi_05.mean) xi_phi.push_back(row.phi), xi_value.push_back(*row.xi_05.mean);
@@ -139,14 +163,17 @@ RunAnalysis analyse_runs(const std::vector<std::string>& dirs, const RunAnalysis
 nlohmann::json to_json(const PowerLawFit& f) {
   return {{"prefactor", number(f.prefactor)}, {"exponent", number(f.exponent)},
           {"exponent_stderr", number(f.exponent_stderr)}, {"log_prefactor_stderr", number(f.log_prefactor_stderr)},
-          {"phi_min", f.x_min}, {"phi_max", f.x_max}, {"points", f.points}, {"rms_log_residual", number(f.rms_log_residual)}};
+          {"phi_min", f.x_min}, {"phi_max", f.x_max}, {"requested_phi_min", f.requested_min},
+          {"requested_phi_max", f.requested_max}, {"points", f.points}, {"dropped_nonpositive", f.dropped},
+          {"rms_log_residual", number(f.rms_log_residual)}};
 }
 
 nlohmann::json to_json(const GelPointFit& f) {
   return {{"prefactor", number(f.prefactor)}, {"phi_g", number(f.phi_g)}, {"exponent", number(f.exponent)},
           {"log_prefactor_stderr", number(f.log_prefactor_stderr)}, {"phi_g_stderr", number(f.phi_g_stderr)},
           {"exponent_stderr", number(f.exponent_stderr)}, {"phi_min", f.x_min}, {"phi_max", f.x_max},
-          {"points", f.points}, {"iterations", f.iterations}, {"converged", f.converged}, {"phi_g_at_bound", f.phi_g_at_bound},
+          {"requested_phi_min", f.requested_min}, {"requested_phi_max", f.requested_max},
+          {"points", f.points}, {"dropped_nonpositive", f.dropped}, {"iterations", f.iterations}, {"converged", f.converged}, {"phi_g_at_bound", f.phi_g_at_bound},
           {"rms_log_residual", number(f.rms_log_residual)}};
 }
 
@@ -169,6 +196,10 @@ nlohmann::json to_json(const CurveAnalysis& a) {
   if (!a.power_law) j["power_law_error"] = a.power_law_error;
   j["gel_point"] = a.gel_point ? to_json(*a.gel_point) : nlohmann::json(nullptr);
   if (!a.gel_point) j["gel_point_error"] = a.gel_point_error;
+  j["fit_rows"] = a.fit_rows;
+  nlohmann::json excluded = nlohmann::json::array();
+  for (const ExcludedRow& row : a.excluded_rows) excluded.push_back({{"k", row.k}, {"phi", row.phi}, {"reason", row.reason}});
+  j["excluded_rows"] = excluded;
   nlohmann::json regimes;
   regimes["single_mode_start_phi"] = optional_number(a.regimes.single_mode_start_phi);
   regimes["multi_mode_start_phi"] = optional_number(a.regimes.multi_mode_start_phi);
@@ -179,13 +210,17 @@ nlohmann::json to_json(const CurveAnalysis& a) {
         a.regimes.range[r] ? nlohmann::json::array({a.regimes.range[r]->first, a.regimes.range[r]->second}) : nlohmann::json(nullptr);
   regimes["ranges"] = ranges;
   nlohmann::json per_interval = nlohmann::json::array();
-  for (std::size_t i = 0; i < a.increments.size(); ++i) {
+  // regimes.label/assigned run over the trusted increments only.
+  for (std::size_t i = 0, t = 0; i < a.increments.size(); ++i) {
     const Increment& inc = a.increments[i];
+    const bool trusted = a.increment_trusted[i];
     per_interval.push_back({{"k", inc.row}, {"phi_lo", inc.phi_lo}, {"phi_hi", inc.phi_hi},
                             {"stored_rate", inc.stored_rate}, {"dissipated_rate", inc.dissipated_rate},
                             {"gamma_normal", inc.gamma_normal}, {"gamma_sliding", inc.gamma_sliding},
-                            {"gamma_rolling", inc.gamma_rolling}, {"label", regime_name(a.regimes.label[i])},
-                            {"regime", regime_name(a.regimes.assigned[i])}});
+                            {"gamma_rolling", inc.gamma_rolling}, {"trusted", trusted},
+                            {"label", trusted ? nlohmann::json(regime_name(a.regimes.label[t])) : nlohmann::json(nullptr)},
+                            {"regime", trusted ? nlohmann::json(regime_name(a.regimes.assigned[t])) : nlohmann::json(nullptr)}});
+    t += trusted;
   }
   regimes["intervals"] = per_interval;
   j["regimes"] = regimes;

@@ -65,6 +65,14 @@ struct MeanStd {
 };
 MeanStd mean_std(const std::vector<std::vector<double>>& members);
 
+// The mean of profiles that each member gives on its own radii (C(r) and D_f(r): bin means of
+// its pair distances, in a box whose height differs a little between seeds), so that an
+// element-wise mean would average different r. Every member is interpolated, linearly in r
+// (the bins are linear), onto the first member's radii inside the range all members cover;
+// `grid` receives those radii.
+MeanStd mean_on_common_radii(const std::vector<std::vector<double>>& radii, const std::vector<std::vector<double>>& values,
+                             std::vector<double>& grid);
+
 // Ensemble of curves of the same protocol on several seeds: rows are matched by their index k
 // (the k-th equilibrium of each member's schedule; phi_0, and so every phi_k, differs a little
 // between seeds, and phi is averaged like the other observables) up to the shortest member. Observables: "phi", "target_phi", "P", "P_top", "P_bot", "contact_number",

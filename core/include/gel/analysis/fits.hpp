@@ -25,8 +25,10 @@ struct PowerLawFit {
   double exponent = 0;           // lambda
   double exponent_stderr = 0;    // NaN with 2 points
   double log_prefactor_stderr = 0;
-  double x_min = 0, x_max = 0;   // range used (as requested)
+  double x_min = 0, x_max = 0;   // range of the points used (smallest and largest fitted x)
+  double requested_min = 0, requested_max = 0;  // the range asked for
   int points = 0;
+  int dropped = 0;               // points in the requested range left out: y <= 0 or not finite
   double rms_log_residual = 0;
 };
 // Throws InvalidArgument ("fit_range") with fewer than 2 usable points or a single x.
@@ -37,8 +39,10 @@ struct GelPointFit {
   double phi_g = 0;
   double exponent = 0;         // lambda'
   double log_prefactor_stderr = 0, phi_g_stderr = 0, exponent_stderr = 0;
-  double x_min = 0, x_max = 0;
+  double x_min = 0, x_max = 0;   // range of the points used
+  double requested_min = 0, requested_max = 0;
   int points = 0;
+  int dropped = 0;               // as in PowerLawFit
   int iterations = 0;
   bool converged = false;
   bool phi_g_at_bound = false;

@@ -6,9 +6,14 @@
 // The curve-level analyses work on the ensemble-mean curve (for one run: the run itself):
 // phi, P and the cumulative energies and rupture counts averaged per row k. On it:
 //   - the power law P = C phi^lambda over [fit_phi_min, fit_phi_max] (default: every row after
-//     the initial state k = 0, which carries no stress);
+//     the initial state k = 0, which carries no stress), on the trusted rows only: rows that
+//     every member reached at mechanical equilibrium with a spanning network. A wait-limited
+//     row is the stress at an arbitrary time and biases lambda, phi_g and lambda'; the rows left
+//     out are listed with their reason (excluded_rows), and include_unequilibrated takes back
+//     the spanning rows that did not equilibrate;
 //   - the gel-point form over the same range (missing, with the reason, when it fails);
-//   - increments, rupture rates and the regime split (curve_analysis.hpp);
+//   - increments, rupture rates and the regime split (curve_analysis.hpp), the split over the
+//     increments between trusted rows only (the rest are listed, without a regime);
 //   - per row with a snapshot, the structure of each member's snapshot (structure.hpp), and per
 //     row the ensemble mean/std of C(r), D_f(r), the D_f fit and xi^(0.5); a power law of
 //     xi^(0.5) against phi over the rows where it exists.
@@ -30,6 +35,14 @@ struct RunAnalysisOptions {
   double fit_phi_min = 0, fit_phi_max = 0;  // 0, 0: rows k >= 1
   double multi_mode_fraction = kDefaultMultiModeFraction;
   bool structures = true;  // analyse the snapshots
+  bool include_unequilibrated = false;  // fit and split rows that did not reach equilibrium too
+};
+
+// A row the fits and the regime split left out, and why ("not equilibrated in 3 of 8 members").
+struct ExcludedRow {
+  int k = 0;
+  double phi = 0;
+  std::string reason;
 };
 
 // Per row k, over the members whose snapshot of row k exists.
@@ -37,7 +50,7 @@ struct RowStructure {
   int k = 0;
   double phi = 0;                         // ensemble-mean phi of the row
   std::vector<std::string> snapshots;     // paths analysed
-  MeanStd c, df;                          // on the common r bins (r from the first member)
+  MeanStd c, df;                          // on the common r grid (see analyse_runs)
   std::vector<double> r_c, r_df;
   OptionalMeanStd df_fit, xi_05;
   double seconds = 0;                     // analysis time over all members
@@ -50,8 +63,11 @@ struct CurveAnalysis {
   std::string power_law_error;
   std::optional<GelPointFit> gel_point;
   std::string gel_point_error;
-  std::vector<Increment> increments;
-  RegimeSplit regimes;
+  std::vector<int> fit_rows;               // k of the rows the fits used
+  std::vector<ExcludedRow> excluded_rows;  // rows k >= 1 the fits and the regime split left out
+  std::vector<Increment> increments;       // every interval of the mean curve
+  std::vector<bool> increment_trusted;     // per increment: both its rows trusted
+  RegimeSplit regimes;                     // over the trusted increments, in order
 };
 
 struct RunAnalysis {
