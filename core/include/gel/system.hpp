@@ -226,6 +226,7 @@ class System {
   void apply_external_forces();
   void collect_wall_forces();
   void check_stability();
+  void check_contact_stiffness();
   void after_drift();
   bool handle_threshold(std::size_t b, double fn, double ft_sq, double moment, double nx, double ny);
   void create_bond(std::int32_t i, std::int32_t j, double shift_x, double shift_y);
