@@ -195,8 +195,14 @@ std::vector<double> phi_profile(const System& system, int slices) {
   std::vector<double> area(static_cast<std::size_t>(slices), 0.0);
   const auto& y = system.y();
   for (std::size_t i = 0; i < system.size(); ++i) {
-    const int first = std::clamp(static_cast<int>(std::floor((y[i] - kRadius - bottom) / width)), 0, slices - 1);
-    const int last = std::clamp(static_cast<int>(std::floor((y[i] + kRadius - bottom) / width)), 0, slices - 1);
+    // Clamped as doubles before the cast: a float-to-int conversion out of range (or of a NaN)
+    // is undefined behaviour, and a particle far outside the walls must not cause it.
+    auto slice_of = [&](double yy) {
+      const double index = std::floor((yy - bottom) / width);
+      return static_cast<int>(std::clamp(std::isnan(index) ? 0.0 : index, 0.0, static_cast<double>(slices - 1)));
+    };
+    const int first = slice_of(y[i] - kRadius);
+    const int last = slice_of(y[i] + kRadius);
     for (int s = first; s <= last; ++s) {
       const double lower = s == 0 ? -std::numeric_limits<double>::infinity() : bottom + s * width;
       const double upper = s == slices - 1 ? std::numeric_limits<double>::infinity() : bottom + (s + 1) * width;

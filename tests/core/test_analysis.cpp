@@ -568,6 +568,18 @@ TEST(Fits, PointsWithNonPositiveStressAreCountedNotHidden) {
   EXPECT_DOUBLE_EQ(fit.requested_max, 1.0);
 }
 
+TEST(CurveJson, CarriesTheModelsEnergyUnit) {
+  // E0 = k_R a^2 phi_c^2 / 2 with k_R a^2 = 20 F0 a and phi_c = 0.05 (MODEL.md, both bond sets):
+  // 0.025 F0 a, written as a number here rather than computed from the code's tables.
+  for (const char* preset : {"bond1", "bond2"}) {
+    gel::v1::Curve curve = planted_curve();
+    curve.mutable_scene()->mutable_bond()->set_preset(preset);
+    const nlohmann::json j = curve_to_json(curve);
+    ASSERT_TRUE(j.contains("E0")) << preset;
+    EXPECT_NEAR(j["E0"].get<double>(), 0.025, 1e-15) << preset;
+  }
+}
+
 TEST(Ensemble, ProfilesOnDifferentRadiiAreAveragedAtEqualR) {
   // Two members sample the same line C(r) = 2 + 3r on shifted radii. Element by element their
   // mean would be 3/2 too high in every bin; interpolated onto common radii it is the line
