@@ -27,6 +27,10 @@ cluster="$here/slurm_cluster.sh"
 status=0
 bash "$cluster" check || status=$?
 if [ "$status" -eq 77 ]; then
+  if [ "${GEL_REQUIRE_SLURM:-0}" = "1" ]; then
+    echo "FAIL: test_slurm_e2e: GEL_REQUIRE_SLURM=1 but Slurm cannot start here (see above)"
+    exit 1
+  fi
   echo "SKIP: test_slurm_e2e: Slurm cannot start here (see above)"
   exit 77
 elif [ "$status" -ne 0 ]; then

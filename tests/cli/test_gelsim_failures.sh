@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# The real gelsim's failure paths for one run, end to end: a numerical instability exits 3 with a
+# `failed` progress line and no curve passed off as finished; SIGTERM exits 4 with a `stopped`
+# line and a checkpoint; --resume from it gives the rows of an uninterrupted run bit for bit; a bad
+# scene exits 2 naming the field.
+set -euo pipefail
+GELSIM=${1:?usage: test_gelsim_failures.sh GELSIM}
+WORK=$(mktemp -d)
+trap 'rm -rf "$WORK"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+# 1. Instability: dt at half the shortest period puts the bond spring far past Verlet's limit.
+cat > "$WORK/unstable.json" <<'JSON'
+{"preset": "quick", "integration": {"dt_fraction": 0.5}, "compression": {"fidelity": "fast", "steps": 2, "phi_max": 0.2}}
+JSON
+set +e
+"$GELSIM" compress --scene "$WORK/unstable.json" --out "$WORK/unstable" --no-snapshots \
+  --progress-file "$WORK/unstable.jsonl" > "$WORK/unstable.out" 2>&1
+code=$?
+set -e
+[ "$code" -eq 3 ] || fail "an unstable run exits 3, got $code: $(tail -2 "$WORK/unstable.out")"
+grep -q "numerical instability" "$WORK/unstable.out" || fail "no instability message on stderr"
+python3 - "$WORK/unstable.jsonl" <<'PY' || fail "progress file of the unstable run"
+import json, sys
+lines = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
+last = lines[-1]
+assert last["type"] == "failed" and last["kind"] == "instability", last
+assert "reduce integration.dt_fraction" in last["error"], last
+assert not any(l["type"] == "done" for l in lines), "an unstable run reported done"
+PY
+
+# 2. SIGTERM after the first rows: exit 4, a stopped line, a checkpoint; --resume finishes it.
+LONG=(--preset quick --fidelity fast --steps 5 --phi-max 0.4 --no-snapshots --checkpoint-seconds 0.2)
+"$GELSIM" compress "${LONG[@]}" --seed 7 --out "$WORK/stop" --progress-file "$WORK/stop.jsonl" > /dev/null 2> "$WORK/stop.log" &
+pid=$!
+for _ in $(seq 600); do
+  rows=$(grep -c '"type":"row"' "$WORK/stop.jsonl" 2>/dev/null || true)
+  [ "${rows:-0}" -ge 2 ] && break
+  kill -0 "$pid" 2>/dev/null || break
+  sleep 0.1
+done
+kill -TERM "$pid" 2>/dev/null || fail "the run finished before it could be stopped (make LONG longer)"
+set +e; wait "$pid"; code=$?; set -e
+[ "$code" -eq 4 ] || fail "a stopped run exits 4, got $code: $(tail -3 "$WORK/stop.log")"
+tail -1 "$WORK/stop.jsonl" | grep -q '"type":"stopped"' || fail "the last progress line is not 'stopped': $(tail -1 "$WORK/stop.jsonl")"
+[ -s "$WORK/stop/checkpoint.bin" ] || fail "no checkpoint after SIGTERM"
+"$GELSIM" compress --resume "$WORK/stop" --no-snapshots > /dev/null 2> "$WORK/resume.log" || fail "resume exited $?: $(tail -3 "$WORK/resume.log")"
+"$GELSIM" compress "${LONG[@]}" --seed 7 --out "$WORK/whole" > /dev/null 2>&1 || fail "uninterrupted run"
+python3 - "$WORK/stop/curve.json" "$WORK/whole/curve.json" <<'PY' || fail "resumed run differs from the uninterrupted one"
+import json, sys
+a, b = (json.load(open(p))["rows"] for p in sys.argv[1:3])
+strip = lambda rows: [{k: v for k, v in r.items() if k != "wall_seconds"} for r in rows]
+assert len(a) == 6, f"{len(a)} rows after resume"
+assert strip(a) == strip(b), "rows differ"
+PY
+
+# 3. A bad scene: exit 2, the field named, nothing run.
+echo '{"preset": "quick", "integration": {"dt_fraction": -1}}' > "$WORK/bad.json"
+set +e
+"$GELSIM" compress --scene "$WORK/bad.json" --out "$WORK/bad" > "$WORK/bad.out" 2>&1
+code=$?
+set -e
+[ "$code" -eq 2 ] || fail "a bad scene exits 2, got $code: $(cat "$WORK/bad.out")"
+grep -q "dt_fraction" "$WORK/bad.out" || fail "the error does not name the field: $(cat "$WORK/bad.out")"
+[ ! -e "$WORK/bad/curve.json" ] || fail "a refused scene wrote a curve"
+echo "gelsim failure paths: ok"
