@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "gel/errors.hpp"
+
 namespace geld {
 
 namespace fs = std::filesystem;
@@ -139,7 +141,13 @@ void JobManager::set_state(const std::shared_ptr<Live>& live, JobState state, co
 
 void JobManager::job_log(const std::string& id, const std::string& level, const std::string& message) {
   spdlog::log(spdlog::level::from_str(level), "job {}: {}", id, message);
-  store_->add_log(id, level, message, now_ms());
+  // A log line that cannot be stored (full disk) is still logged and streamed: it must not fail
+  // the job it describes.
+  try {
+    store_->add_log(id, level, message, now_ms());
+  } catch (const StoreError& e) {
+    spdlog::warn("job {}: log line not stored: {}", id, e.what());
+  }
   if (auto live = find_live(id)) {
     std::lock_guard lock(live->mutex);
     gel::v1::JobUpdate update;
@@ -552,11 +560,25 @@ void JobManager::worker_loop() {
         queue_changed_.notify_one();
       }
     }
-    if (member >= 0) {
-      run_member(live, member);
-    } else {
-      // Every member had finished before (a job recovered after its last member ended).
-      finish_if_done(live);
+    try {
+      if (member >= 0) {
+        run_member(live, member);
+      } else {
+        // Every member had finished before (a job recovered after its last member ended).
+        finish_if_done(live);
+      }
+    } catch (const std::exception& e) {
+      // Storing the job's end failed (run_member handles everything before it). The daemon
+      // keeps serving; the job keeps its stored state, so a restart or a retry finishes it.
+      std::string id_for_log;
+      {
+        std::lock_guard lock(live->mutex);
+        live->ending = false;
+        id_for_log = live->job.id();
+      }
+      spdlog::error("job {}: {}", id_for_log, e.what());
+      const auto* store_error = dynamic_cast<const StoreError*>(&e);
+      if (store_error && store_error->full()) wait_for_space(live, -1, e.what());
     }
     bool forget = false;
     std::string id;
@@ -570,6 +592,40 @@ void JobManager::worker_loop() {
       live_.erase(id);
     }
   }
+}
+
+// A full disk is not the job's fault: the member (or, with member < 0, the job's end) is
+// retried from its checkpoint every disk_full_retry_seconds until the write succeeds. The job
+// stays running, its message says why it waits, watchers get a LOG line, and this worker waits
+// (a full disk stalls every job alike) unless geld shuts down or the job is cancelled.
+void JobManager::wait_for_space(const std::shared_ptr<Live>& live, int member, const std::string& error) {
+  std::string id;
+  const std::string message = "waiting for disk space (" + error + "); retrying every " +
+                              std::to_string(options_.disk_full_retry_seconds).substr(0, 4) + " s";
+  {
+    std::lock_guard lock(live->mutex);
+    id = live->job.id();
+    if (member >= 0) live->next_member = std::min(live->next_member, member);
+    live->job.set_error(message);
+    gel::v1::JobUpdate update;
+    update.set_kind(gel::v1::JobUpdate::LOG);
+    update.set_message(message);
+    update.set_member(std::max(member, 0));
+    publish(*live, std::move(update));
+  }
+  spdlog::warn("job {}: {}", id, message);
+  {
+    std::unique_lock lock(mutex_);
+    queue_changed_.wait_for(lock, std::chrono::duration<double>(options_.disk_full_retry_seconds),
+                            [&] { return shutting_down_ || live->stop.load(); });
+    if (shutting_down_) return;  // the job stays running in the store and resumes on restart
+    queue_.push_back(id);
+  }
+  {
+    std::lock_guard lock(live->mutex);
+    live->job.set_error("");
+  }
+  queue_changed_.notify_one();
 }
 
 // Sets a terminal state once, whichever member thread gets there first.
@@ -601,7 +657,7 @@ void JobManager::run_member(const std::shared_ptr<Live>& live, int member) {
     live->started = true;
   }
   const std::string id = job.id();
-  enum class Outcome { kFinished, kStopped, kFailed } outcome = Outcome::kStopped;
+  enum class Outcome { kFinished, kStopped, kFailed, kNoSpace } outcome = Outcome::kStopped;
   std::string error;
   if (!live->stop) {
     if (first_to_start) {
@@ -664,6 +720,12 @@ void JobManager::run_member(const std::shared_ptr<Live>& live, int member) {
         job_log(id, "info", "member " + std::to_string(member) + " finished with " + std::to_string(rows.size()) + " rows");
         outcome = Outcome::kFinished;
       }
+    } catch (const StoreError& e) {
+      outcome = e.full() ? Outcome::kNoSpace : Outcome::kFailed;
+      error = e.what();
+    } catch (const gel::NoSpaceError& e) {
+      outcome = Outcome::kNoSpace;
+      error = e.what();
     } catch (const std::exception& e) {
       outcome = Outcome::kFailed;
       error = e.what();
@@ -692,7 +754,11 @@ void JobManager::run_member(const std::shared_ptr<Live>& live, int member) {
     finish_if_done(live);
     return;
   }
-  if (outcome == Outcome::kFailed) {
+  if (outcome == Outcome::kNoSpace && !live->cancel_requested) {
+    wait_for_space(live, member, error);
+    return;
+  }
+  if (outcome == Outcome::kFailed || outcome == Outcome::kNoSpace) {
     if (live->cancel_requested) {
       if (last_running) end_job(live, gel::v1::JOB_STATE_CANCELLED, "cancelled while running");
       return;

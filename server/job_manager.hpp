@@ -72,6 +72,9 @@ struct ManagerOptions {
   std::string db_path;            // "": data_dir/geld.sqlite
   int workers = 0;                // 0: number of cores
   Limits limits;
+  // A full disk (the store or a job's files) pauses the member that hit it; it is retried from
+  // its checkpoint after this many seconds, until space is back.
+  double disk_full_retry_seconds = 10;
 };
 
 class JobManager {
@@ -131,6 +134,7 @@ class JobManager {
   void publish(Live& live, gel::v1::JobUpdate update);
   void set_state(const std::shared_ptr<Live>& live, gel::v1::JobState state, const std::string& message);
   void job_log(const std::string& id, const std::string& level, const std::string& message);
+  void wait_for_space(const std::shared_ptr<Live>& live, int member, const std::string& error);
   std::shared_ptr<Live> find_live(const std::string& id);
   gel::v1::Curve member_curve(const gel::v1::Job& job, const std::vector<StoredRow>& rows, int member);
   std::vector<gel::v1::JobUpdate> stored_rows(const std::string& id, std::int64_t sequence);

@@ -108,6 +108,7 @@ int main(int argc, char** argv) {
   std::string token_file, data_dir, db_path, log_level = "info", log_file;
   std::string executor_name = "threads", gelsim;
   int workers = 0;
+  double disk_full_retry = 10;
   geld::Limits limits;
   app.add_option("--listen", listen, "host:port to listen on; a non-loopback address needs --token-file")
       ->capture_default_str();
@@ -118,6 +119,10 @@ int main(int argc, char** argv) {
   app.add_option("--workers", workers, "Jobs run at once (threads) or members followed (slurm); 0: cores")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--disk-full-retry", disk_full_retry,
+                 "Seconds between retries of a member paused by a full disk (it resumes from its checkpoint)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--executor", executor_name, "Who runs the jobs: threads or slurm")->capture_default_str();
   app.add_option("--gelsim", gelsim, "gelsim binary for executors that run it as a process");
   app.add_option("--max-queue", limits.max_queue, "Queued jobs at most")->capture_default_str()->check(CLI::PositiveNumber);
@@ -175,6 +180,7 @@ int main(int argc, char** argv) {
   options.manager.data_dir = data_dir.empty() ? default_data_dir() : data_dir;
   options.manager.db_path = db_path;
   options.manager.workers = workers;
+  options.manager.disk_full_retry_seconds = disk_full_retry;
   options.manager.limits = limits;
   geld::ExecutorConfig executor_config;
   executor_config.name = executor_name;

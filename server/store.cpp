@@ -1,5 +1,6 @@
 #include "store.hpp"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <tuple>
@@ -10,6 +11,10 @@
 
 namespace geld {
 namespace {
+
+bool disk_full(sqlite3* db, int rc) {
+  return (rc & 0xff) == SQLITE_FULL || sqlite3_system_errno(db) == ENOSPC || sqlite3_system_errno(db) == EDQUOT;
+}
 
 // A prepared statement that finalizes itself; binds are 1-based like SQLite's.
 class Stmt {
@@ -50,7 +55,7 @@ class Stmt {
     int rc = sqlite3_step(stmt_);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    throw StoreError(std::string("sqlite step: ") + sqlite3_errmsg(db_));
+    throw StoreError(std::string("sqlite step: ") + sqlite3_errmsg(db_), disk_full(db_, rc));
   }
   void run() {
     while (step()) {
@@ -97,10 +102,11 @@ class Transaction {
  private:
   void exec(const char* sql) {
     char* err = nullptr;
-    if (sqlite3_exec(db_, sql, nullptr, nullptr, &err) != SQLITE_OK) {
+    const int rc = sqlite3_exec(db_, sql, nullptr, nullptr, &err);
+    if (rc != SQLITE_OK) {
       std::string msg = err ? err : "?";
       sqlite3_free(err);
-      throw StoreError(std::string("sqlite: ") + msg + " in: " + sql);
+      throw StoreError(std::string("sqlite: ") + msg + " in: " + sql, disk_full(db_, rc));
     }
   }
   sqlite3* db_;
@@ -259,10 +265,11 @@ Store::~Store() {
 
 void Store::exec(const char* sql) {
   char* err = nullptr;
-  if (sqlite3_exec(db_, sql, nullptr, nullptr, &err) != SQLITE_OK) {
+  const int rc = sqlite3_exec(db_, sql, nullptr, nullptr, &err);
+  if (rc != SQLITE_OK) {
     std::string msg = err ? err : "?";
     sqlite3_free(err);
-    throw StoreError("sqlite: " + msg);
+    throw StoreError("sqlite: " + msg, disk_full(db_, rc));
   }
 }
 

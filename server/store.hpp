@@ -35,9 +35,15 @@ struct sqlite3;
 
 namespace geld {
 
+// `full()`: the database or its disk is full (SQLITE_FULL, ENOSPC). The store is intact and
+// works again once space is back, so the job manager waits instead of failing jobs.
 class StoreError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit StoreError(const std::string& message, bool full = false) : std::runtime_error(message), full_(full) {}
+  bool full() const { return full_; }
+
+ private:
+  bool full_ = false;
 };
 
 struct JobFilter {

@@ -3,8 +3,10 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -157,23 +159,40 @@ std::string read_file(const std::string& path) {
   return buffer.str();
 }
 
+namespace {
+// The error for a failed write: NoSpaceError when the file system is full, so that the caller
+// can wait for space instead of failing the run.
+[[noreturn]] void write_failed(const std::string& what, int error) {
+  const std::string message = what + ": " + std::strerror(error);
+  if (error == ENOSPC || error == EDQUOT) throw NoSpaceError(message);
+  throw std::runtime_error(message);
+}
+}  // namespace
+
 void write_file_atomically(const std::string& path, const std::string& contents) {
   const std::string temporary = path + ".tmp";
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  if (fd < 0) throw std::runtime_error("cannot write '" + temporary + "'");
+  if (fd < 0) write_failed("cannot write '" + temporary + "'", errno);
   std::size_t written = 0;
   while (written < contents.size()) {
     const ssize_t n = ::write(fd, contents.data() + written, contents.size() - written);
     if (n <= 0) {
+      const int error = n < 0 ? errno : ENOSPC;  // a write of 0 bytes: no room left
       ::close(fd);
-      throw std::runtime_error("write to '" + temporary + "' failed");
+      ::unlink(temporary.c_str());
+      write_failed("write to '" + temporary + "' failed", error);
     }
     written += static_cast<std::size_t>(n);
   }
-  ::fsync(fd);
+  if (::fsync(fd) != 0) {
+    const int error = errno;
+    ::close(fd);
+    ::unlink(temporary.c_str());
+    write_failed("fsync of '" + temporary + "' failed", error);
+  }
   ::close(fd);
   if (std::rename(temporary.c_str(), path.c_str()) != 0)
-    throw std::runtime_error("cannot rename '" + temporary + "' to '" + path + "'");
+    write_failed("cannot rename '" + temporary + "' to '" + path + "'", errno);
 }
 
 namespace {

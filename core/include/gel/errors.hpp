@@ -25,6 +25,14 @@ class StabilityError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A file could not be written because its file system is full (ENOSPC or a quota). Nothing
+// is wrong with the run: it can go on from its last checkpoint once space is back, so callers
+// that can wait (the service) treat it apart from other failures.
+class NoSpaceError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 // Throws InvalidArgument unless value is finite and > 0.
 void require_positive(const std::string& field, double value);
 // Throws InvalidArgument unless value is finite and >= 0.
