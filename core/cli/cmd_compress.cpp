@@ -480,7 +480,7 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
                  "quasistatic: residual force and torque/a per particle over the mean bond force (default 1e-4)");
   sub.add_option("--relax-floor", args->relax_floor, "quasistatic: residual that always counts as relaxed [F0] (default stress floor x a^2)");
   sub.add_option("--relax-dt-max", args->relax_dt_max, "quasistatic: FIRE's largest step over the dynamics' dt, times FIRE's inertia gain (default 3)");
-  sub.add_option("--relax-max-iterations", args->relax_max_iterations, "quasistatic: FIRE iterations per strain step (default 2e5)");
+  sub.add_option("--relax-max-iterations", args->relax_max_iterations, "quasistatic: FIRE iterations per strain step (default 1e6)");
   sub.add_option("--profile-slices", args->profile_slices, "slices of the phi(y) profile");
   sub.add_option("--checkpoint-seconds", args->checkpoint_seconds, "wall-clock seconds between checkpoints");
   sub.add_option("--eta-factor", args->eta_factor, "viscosity in units of eta_cd (default 0.1)");

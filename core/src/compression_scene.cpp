@@ -65,7 +65,7 @@ Fidelity fidelity_preset(const std::string& name) {
 // Quasi-static method defaults (docs/quasistatic.md).
 constexpr double kDefaultStrainStep = 0.005;         // d ln(phi) per affine step
 constexpr double kDefaultRelaxTolerance = 1e-4;      // residual / mean bond force
-constexpr std::int64_t kDefaultRelaxIterations = 200000;
+constexpr std::int64_t kDefaultRelaxIterations = 1000000;
 constexpr double kDefaultRelaxDtMax = 3;             // FIRE dt_max / (dt x FIRE inertia gain)
 
 // Default waiting limit per target, in exam intervals.
