@@ -426,7 +426,11 @@ int run_compress(const CompressArgs& args) {
   if (terminal) std::cerr << '\n';
   if (result.stopped) {
     progress_file.write({{"type", "stopped"}, {"out", options.out_dir}, {"rows", result.curve.rows_size()}});
-    std::cerr << "gelsim: stopped" << (options.out_dir.empty() ? "" : "; resume with --resume " + options.out_dir) << "\n";
+    const bool resumable = !options.out_dir.empty() && gel::has_checkpoint(options.out_dir);
+    std::cerr << "gelsim: stopped"
+              << (resumable ? "; resume with --resume " + options.out_dir
+                            : " before the gel was generated (nothing to resume: run the same command again)")
+              << "\n";
     return 4;
   }
   progress_file.write({{"type", "done"}, {"out", options.out_dir}, {"rows", result.curve.rows_size()}});

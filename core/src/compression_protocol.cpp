@@ -658,7 +658,15 @@ CompressionResult run_compression(const gel::v1::Scene& scene, const RunOptions&
       p.set_remaining_seconds(-1);
       options.on_progress(p);
     }
-    generated = generate_gel(resolved.generator());
+    try {
+      generated = generate_gel(resolved.generator(), nullptr, options.stop);
+    } catch (const GenerationStopped&) {
+      // Nothing to checkpoint yet: a resumed run generates the same gel again from its seed.
+      CompressionResult stopped;
+      *stopped.curve.mutable_scene() = resolved;
+      stopped.stopped = true;
+      return stopped;
+    }
     initial = &*generated;
   }
   System system(*initial, params);

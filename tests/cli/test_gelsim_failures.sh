@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The real gelsim's failure paths for one run, end to end: a numerical instability exits 3 with a
 # `failed` progress line and no curve passed off as finished; SIGTERM exits 4 with a `stopped`
-# line and a checkpoint; --resume from it gives the rows of an uninterrupted run bit for bit; a bad
-# scene exits 2 naming the field.
+# line and a checkpoint; --resume from it gives the rows of an uninterrupted run bit for bit; a
+# SIGTERM during a long gel generation is honoured at once; a bad scene exits 2 naming the field.
 set -euo pipefail
 GELSIM=${1:?usage: test_gelsim_failures.sh GELSIM}
 WORK=$(mktemp -d)
@@ -54,7 +54,23 @@ assert len(a) == 6, f"{len(a)} rows after resume"
 assert strip(a) == strip(b), "rows differ"
 PY
 
-# 3. A bad scene: exit 2, the field named, nothing run.
+# 3. SIGTERM while a huge dilute box is still being generated (minutes of random walk): the
+#    generator honours the stop, exit 4 within seconds, and the message says nothing can resume.
+echo '{"preset": "quick", "generator": {"lx": 5000, "ly": 5000}}' > "$WORK/bigbox.json"
+"$GELSIM" compress --scene "$WORK/bigbox.json" --out "$WORK/bigbox" --no-snapshots \
+  --progress-file "$WORK/bigbox.jsonl" > /dev/null 2> "$WORK/bigbox.log" &
+pid=$!
+for _ in $(seq 100); do grep -q generating "$WORK/bigbox.jsonl" 2>/dev/null && break; sleep 0.05; done
+sleep 0.5
+kill -TERM "$pid" 2>/dev/null || fail "the big box finished generating at once (make it bigger)"
+start=$(date +%s%N)
+set +e; wait "$pid"; code=$?; set -e
+elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
+[ "$code" -eq 4 ] || fail "a run stopped while generating exits 4, got $code: $(tail -2 "$WORK/bigbox.log")"
+[ "$elapsed_ms" -lt 10000 ] || fail "the generator took ${elapsed_ms} ms to honour SIGTERM"
+grep -q "before the gel was generated" "$WORK/bigbox.log" || fail "stop message: $(tail -1 "$WORK/bigbox.log")"
+
+# 4. A bad scene: exit 2, the field named, nothing run.
 echo '{"preset": "quick", "integration": {"dt_fraction": -1}}' > "$WORK/bad.json"
 set +e
 "$GELSIM" compress --scene "$WORK/bad.json" --out "$WORK/bad" > "$WORK/bad.out" 2>&1

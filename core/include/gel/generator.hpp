@@ -40,7 +40,9 @@
 // the C++ standard) through our own conversions to doubles, integers and directions (no
 // std::*_distribution, no sin/cos in the positions), so a seed gives the same gel with any
 // standard library on IEEE-754 hardware that does not fuse multiply-adds.
+#include <atomic>
 #include <cstdint>
+#include <stdexcept>
 #include <string_view>
 #include <utility>
 #include <vector>
@@ -81,9 +83,19 @@ struct GeneratorSummary {
   std::int64_t walk_moves = 0;               // random-walk moves of the network stage
 };
 
+// Thrown by generate_gel when its `stop` flag is set: a large box can take minutes to
+// aggregate, and a cancelled or shut-down job must not wait for it.
+class GenerationStopped : public std::runtime_error {
+ public:
+  GenerationStopped() : std::runtime_error("gel generation stopped on request") {}
+};
+
 // The whole gel: resolves `g` first (so presets and defaults apply), fills Configuration.seed
-// and .generator (the resolved parameters). Positions lie in [0, L_x] x [0, L_y].
-Configuration generate_gel(const gel::v1::Generator& g, GeneratorSummary* summary = nullptr);
+// and .generator (the resolved parameters). Positions lie in [0, L_x] x [0, L_y]. With `stop`,
+// checked between flocs and every few thousand random-walk moves, throws GenerationStopped once
+// it is set.
+Configuration generate_gel(const gel::v1::Generator& g, GeneratorSummary* summary = nullptr,
+                           const std::atomic<bool>* stop = nullptr);
 
 // One floc of n particles (n a power of two), centre of mass at the origin, bonds between
 // touching particles, in free space (lx = ly = 0: no periodic box). With size_rg, receives one
