@@ -449,6 +449,13 @@ gel::v1::Generator resolve_generator(const gel::v1::Generator& g) {
   const double min_box = 3.0 * (kContact + r.walk_step() + 2.0 * r.contact_tolerance());
   if (r.lx() < min_box) throw InvalidArgument("generator.lx", "box too small: needs at least " + str(min_box) + " a");
   if (r.ly() < min_box) throw InvalidArgument("generator.ly", "box too small: needs at least " + str(min_box) + " a");
+  // The generator's cell grid and its random walk grow with the box area (a 15000 a square took
+  // 690 MB before it placed a particle): 2.5e7 a^2 is ten times the 16x paper box.
+  constexpr double kMaxBoxArea = 2.5e7;
+  if (!(r.lx() * r.ly() <= kMaxBoxArea))
+    throw InvalidArgument(r.lx() >= r.ly() ? "generator.lx" : "generator.ly",
+                          "box of " + str(r.lx()) + " a x " + str(r.ly()) + " a exceeds the limit of " + str(kMaxBoxArea) +
+                              " a^2 on lx * ly (ten times the paper-bond1-16x box)");
   const double phi = kPi * kRadius * kRadius * static_cast<double>(n) / (r.lx() * r.ly());
   if (!(phi < kMaxPackingFraction))
     throw InvalidArgument("generator.n_clusters", "packing fraction " + str(phi) +

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -344,6 +345,10 @@ TEST(Generator, ImpossibleRequestsFailAtOnceNamingTheField) {
   expect_invalid(request(100, 100, 16, 0, 1), "generator.n_clusters");
   expect_invalid(request(std::nan(""), 100, 16, 4, 1), "generator.lx");
   expect_invalid(request(4, 100, 1, 4, 1), "generator.lx");  // box below three cells
+  // Boxes whose grid alone would take gigabytes, and the absurd: refused by the area limit.
+  expect_invalid(request(15000, 15000, 16, 4, 1), "generator.lx");
+  expect_invalid(request(100, 1e308, 16, 4, 1), "generator.ly");
+  expect_invalid(request(std::numeric_limits<double>::infinity(), 100, 16, 4, 1), "generator.lx");
   // Denser than any disk packing: rejected before any work.
   expect_invalid(request(20, 20, 64, 2, 1), "generator.n_clusters");
   // Possible as a packing, impossible for random placement of flocs: fails after the
