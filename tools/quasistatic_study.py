@@ -275,7 +275,8 @@ def write_report(args, results, rng):
         ref_runs = ensembles.get(REFERENCE, [])
         header = "| k | φ_k | " + " | ".join(f"P_y {v} | eq." for v in present) + " | " + \
             " | ".join(f"{v} − {REFERENCE} (95 % CI) | agree" for v in candidates if ref_runs) + " |"
-        out.append(header.replace("|  |", "|"))
+        header = header.replace("|  |", "|")
+        out.append(header)
         out.append("|" + "---|" * (header.count("|") - 1))
         rows_count = max((len(r["rows"]) for v in present for r in ensembles[v]), default=0)
         for k in range(1, rows_count):
@@ -305,7 +306,8 @@ def write_report(args, results, rng):
         out.append("At the last target (φ = 0.74), per particle:\n")
         header = "| observable | " + " | ".join(present) + " | " + \
             " | ".join(f"{v} − {REFERENCE} (95 % CI)" for v in candidates if ref_runs) + " |"
-        out.append(header.replace("|  |", "|"))
+        header = header.replace("|  |", "|")
+        out.append(header)
         out.append("|" + "---|" * (header.count("|") - 1))
         for key, label in (("z", "contact number z"), ("normal", "normal breaks / N"), ("sliding", "sliding resets / N"),
                            ("rolling", "rolling resets / N"), ("stored", "stored energy / N [F0 a]"),
