@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # End to end with the real binaries: geld on a free loopback port with its SQLite file in a
 # temporary directory, driven by gelctl and by the Python client.
-#   submit --watch / status --json / curve --json|--csv / list / logs / cancel
+#   submit --watch / status --json / curve --json|--csv / list / logs / cancel of a running job
 #   bad input: exit codes and one-line messages, and the daemon keeps serving
+#   a job the engine fails (numerical instability): watch exits 3 (as for a cancelled job)
 #   SIGKILL mid-job, restart: the job resumes and ends with the curve of an uninterrupted run
 #   remote mode: --listen 0.0.0.0 needs --token-file; calls without the token UNAUTHENTICATED
 #
@@ -50,7 +51,7 @@ TINY=(--preset quick --fidelity fast --set generator.n_floc=8 --set generator.n_
 ctl submit "${TINY[@]}" --seed 1 --name e2e --label suite=e2e --watch >"$work/watch.txt" || fail "submit --watch"
 job=$(head -n 1 "$work/watch.txt")
 [[ $job =~ ^job-[0-9]+$ ]] || fail "first line of submit is not a job id: $job"
-grep -q "succeeded" "$work/watch.txt" || fail "watch did not show success"
+grep -qxF "$job: succeeded" "$work/watch.txt" || fail "watch did not show success"
 [ "$(grep -c '^  k' "$work/watch.txt")" -eq 4 ] || fail "watch did not show 4 rows"
 ctl status "$job" --json >"$work/status.json"
 $py - "$work/status.json" <<'PY' || fail "status --json"
@@ -72,13 +73,24 @@ assert rows[-1]["phi"] > rows[0]["phi"]
 PY
 ctl curve "$job" --csv --out "$work/curve.csv"
 [ "$(wc -l <"$work/curve.csv")" -eq 5 ] || fail "curve --csv: expected a header and 4 rows"
-ctl curve "$job" | grep -q "256\|64 particles" || fail "curve table"
+table=$(ctl curve "$job") || fail "curve (table)"
+grep -qxF "# job $job (succeeded), seed 1, 64 particles, 4 rows" <<<"$table" \
+  || fail "curve table header is not the 64-particle, 4-row job: $(head -n 1 <<<"$table")"
+[ "$(grep -cE '^ +[0-9]+ ' <<<"$table")" -eq 4 ] || fail "curve table does not have 4 rows"
 ctl curve "$job" --png "$work/curve.png" >/dev/null || fail "curve --png"
 [ "$(head -c 4 "$work/curve.png" | tail -c 3)" = PNG ] || fail "curve --png did not write a PNG"
-ctl list --label suite=e2e | grep -q "$job" || fail "list --label"
-ctl list --state running | grep -q "$job" && fail "list --state running shows a finished job"
-ctl logs "$job" | grep -q "finished" || fail "logs"
-ctl query --label suite=e2e | grep -q "$job" || fail "query"
+# Each listing captured first: a gelctl that fails must not pass for "job not listed".
+listed=$(ctl list --label suite=e2e) || fail "list --label"
+grep -qE "^$job +succeeded +e2e " <<<"$listed" || fail "list --label does not show $job: $listed"
+listed=$(ctl list --state succeeded) || fail "list --state succeeded"
+grep -qE "^$job +succeeded " <<<"$listed" || fail "list --state succeeded does not show $job: $listed"
+listed=$(ctl list --state running) || fail "list --state running"
+if grep -q "^$job " <<<"$listed"; then fail "list --state running shows a finished job: $listed"; fi
+logs=$(ctl logs "$job") || fail "logs"
+grep -qE " member 0 finished with 4 rows$" <<<"$logs" || fail "logs lack the member's end: $logs"
+listed=$(ctl query --label suite=e2e) || fail "query"
+grep -qE "^$job +e2e +bond1 " <<<"$listed" || fail "query does not show $job: $listed"
+ctl watch "$job" >/dev/null || fail "watch of a succeeded job exited non-zero"
 echo "ok: submit --watch, status --json, curve --json/--csv/--png, list, logs, query ($job)"
 
 # ---- bad input: exit codes and messages -----------------------------------------------------
@@ -104,13 +116,52 @@ ctl status "$job" >/dev/null || fail "geld stopped serving after bad input"
 echo "ok: bad input gets exit 2/1 with the status code and the field"
 
 # ---- cancel a running job ------------------------------------------------------------------
-long=$(ctl submit --preset quick --seed 5)
+long=$(ctl submit --preset quick --seed 5) || fail "submit of the job to cancel"
+state=none
 for _ in $(seq 1 600); do
-  [ "$(ctl status "$long" --json | $py -c 'import json,sys; print(json.load(sys.stdin)["state"])')" = running ] && break
+  state=$(ctl status "$long" --json | $py -c 'import json,sys; print(json.load(sys.stdin)["state"])') \
+    || fail "status of $long"
+  [ "$state" = running ] && break
   sleep 0.05
 done
-ctl cancel "$long" | grep -q cancelled || fail "cancel of a running job"
-echo "ok: cancel"
+# A job cancelled while still queued would print "cancelled" too: it must have been running.
+[ "$state" = running ] || fail "$long was not running before the cancel (state $state)"
+cancelled=$(ctl cancel "$long") || fail "cancel of a running job"
+[ "$cancelled" = "$long: cancelled" ] || fail "cancel of a running job printed '$cancelled'"
+ctl status "$long" --json >"$work/cancelled.json" || fail "status of the cancelled job"
+$py - "$work/cancelled.json" <<'PY' || fail "the cancelled job's status"
+import json, sys
+job = json.load(open(sys.argv[1]))
+assert job["state"] == "cancelled", job["state"]
+assert job["error"] == "cancelled while running", job["error"]
+assert job["started"] != "-", job["started"]
+PY
+status=0
+ctl watch "$long" >"$work/cancelled-watch.txt" || status=$?
+[ "$status" -eq 3 ] || fail "watch of a cancelled job exited $status, expected 3"
+echo "ok: cancel of a running job; watching it exits 3"
+
+# ---- a job that fails: exit 3 from watch ---------------------------------------------------
+# dt at half the shortest period: the engine's stability guard stops the run at once.
+cat >"$work/unstable.json" <<'JSON'
+{"preset": "quick", "integration": {"dt_fraction": 0.5}, "compression": {"fidelity": "fast", "steps": 2, "phi_max": 0.2}}
+JSON
+status=0
+ctl submit --scene "$work/unstable.json" --watch >"$work/unstable.txt" 2>"$work/unstable.err" || status=$?
+[ "$status" -eq 3 ] || fail "submit --watch of a failing job exited $status, expected 3: $(cat "$work/unstable.err")"
+unstable=$(head -n 1 "$work/unstable.txt")
+[[ $unstable =~ ^job-[0-9]+$ ]] || fail "first line of submit is not a job id: $unstable"
+grep -qE "^$unstable: failed: .*reduce integration\.dt_fraction" "$work/unstable.txt" \
+  || fail "watch did not show the instability: $(cat "$work/unstable.txt")"
+status=0
+ctl watch "$unstable" >"$work/unstable-watch.txt" || status=$?
+[ "$status" -eq 3 ] || fail "watch of a failed job exited $status, expected 3"
+grep -qE "^$unstable: failed \(256 particles, 1 seed, [0-9]+ rows so far\): .*reduce integration\.dt_fraction" \
+  "$work/unstable-watch.txt" || fail "watch of a failed job: $(cat "$work/unstable-watch.txt")"
+[ "$(ctl status "$unstable" --json | $py -c 'import json,sys; print(json.load(sys.stdin)["state"])')" = failed ] \
+  || fail "status of the failed job is not failed"
+ctl status "$job" >/dev/null || fail "geld stopped serving after a failed job"
+echo "ok: a failing job: submit --watch and watch exit 3 with the engine's message"
 
 # ---- the Python client ---------------------------------------------------------------------
 $py "$source_dir/client/python/gel_client.py" --stubs "$build/client/python" --server "$server" \
@@ -136,6 +187,8 @@ kill -KILL "$geld_pid"
 wait "$geld_pid" 2>/dev/null || true
 stored=$($py -c "import sqlite3,sys; print(sqlite3.connect('$data/geld.sqlite').execute(\"select count(*) from curve_rows where job_id='$victim'\").fetchone()[0])")
 echo "killed geld with $stored of 7 rows of $victim stored"
+# Killed mid-run, or the restart below resumes nothing and the check proves nothing.
+[ "$stored" -ge 2 ] && [ "$stored" -lt 7 ] || fail "geld was not killed mid-job ($stored of 7 rows stored)"
 t0=$(date +%s.%N)
 start_geld "$data" "$port"
 t1=$(date +%s.%N)
@@ -151,7 +204,8 @@ for x, y in zip(a, b):
     for key in ("k", "phi", "P", "P_top", "P_bot", "contact_number", "stored_energy", "steps"):
         assert x[key] == y[key], (x["k"], key, x[key], y[key])
 PY
-grep -q "resum" "$data.log" || fail "geld's log does not mention the resumption"
+grep -qF "job $victim: was running; resumes from its checkpoint" "$data.log" \
+  || fail "geld's log does not mention the resumption of $victim"
 echo "ok: SIGKILL with $stored rows stored; restart answered in $(awk "BEGIN{printf \"%.2f\", $t1-$t0}") s," \
   "the job finished $(awk "BEGIN{printf \"%.2f\", $t2-$t1}") s later with the uninterrupted curve"
 

@@ -3,13 +3,17 @@
 // behaviour (blocking, concurrency, cancellation, limits) uses a plain callable executor, a test
 // double of the engine run, never of gRPC or SQLite.
 #include <sqlite3.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <csignal>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <mutex>
@@ -23,6 +27,8 @@
 #include <spdlog/spdlog.h>
 
 #include "executor.hpp"
+#include "gel/compression.hpp"
+#include "gel/errors.hpp"
 #include "gel/v1/service.grpc.pb.h"
 #include "job_manager.hpp"
 #include "service.hpp"
@@ -1017,6 +1023,359 @@ TEST_F(Service, FailedRunIsFailedWithItsMessage) {
   const auto job = get(id);
   EXPECT_EQ(job.state(), gel::v1::JOB_STATE_FAILED);
   EXPECT_NE(job.error().find("step 42"), std::string::npos);
+}
+
+TEST_F(Service, WatchStreamsStateLogProgressAndRowUpdates) {
+  // One worker. The first job (seed 1) holds it until `release`; the second (seed 2) is watched
+  // from while it is queued, so every update of its run arrives live: the state changes, the
+  // manager's and the executor's log lines, progress and rows.
+  std::atomic<bool> release{false};
+  auto executor = std::make_shared<FnExecutor>([&](const geld::RunContext& ctx) -> geld::RunResult {
+    geld::RunResult result;
+    while (ctx.seed == 1 && !release && !ctx.stop->load()) std::this_thread::sleep_for(5ms);
+    if (ctx.stop->load()) {
+      result.stopped = true;
+      return result;
+    }
+    ctx.log("info", "executor log line for seed " + std::to_string(ctx.seed));
+    for (int k = 0; k < 3; ++k) {
+      gel::v1::Progress progress;
+      progress.set_k(k);
+      progress.set_k_total(2);
+      progress.set_phase("compressing");
+      progress.set_phi(0.1 + 0.05 * k);
+      ctx.on_progress(progress);
+      std::this_thread::sleep_for(20ms);
+      auto row = make_row(k, static_cast<double>(ctx.seed));
+      ctx.on_row(row);
+      *result.curve.add_rows() = row;
+    }
+    result.finished = true;
+    return result;
+  });
+  start({}, 1, executor);
+  const std::string blocker = submit_ok(tiny_scene_json(), {1});
+  ASSERT_TRUE(wait_for([&] { return get(blocker).state() == gel::v1::JOB_STATE_RUNNING; }));
+  const std::string id = submit_ok(tiny_scene_json(), {2});
+  std::atomic<bool> subscribed{false};
+  grpc::Status status;
+  std::vector<JobUpdate> updates;
+  std::thread watcher([&] {
+    updates = watch(id, &status, [&](const JobUpdate& u) {
+      if (u.kind() == JobUpdate::SNAPSHOT) subscribed = true;
+      return true;
+    });
+  });
+  ASSERT_TRUE(wait_for([&] { return subscribed.load(); }));
+  release = true;
+  watcher.join();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_GE(updates.size(), 2u);
+  EXPECT_EQ(updates.front().kind(), JobUpdate::SNAPSHOT);
+  EXPECT_EQ(updates.front().job().state(), gel::v1::JOB_STATE_QUEUED);
+  // Every kind the proto defines (but KIND_UNSPECIFIED) arrives, in sequence order.
+  for (auto kind : {JobUpdate::SNAPSHOT, JobUpdate::STATE, JobUpdate::PROGRESS, JobUpdate::ROW, JobUpdate::LOG}) {
+    EXPECT_GE(count_kind(updates, kind), 1) << JobUpdate::Kind_Name(kind);
+  }
+  EXPECT_EQ(count_kind(updates, JobUpdate::KIND_UNSPECIFIED), 0);
+  for (std::size_t i = 1; i < updates.size(); ++i) {
+    EXPECT_GT(updates[i].sequence(), updates[i - 1].sequence()) << "update " << i;
+  }
+  std::vector<gel::v1::JobState> states;
+  std::vector<std::string> logs;
+  std::vector<int> ks;
+  for (const auto& u : updates) {
+    if (u.kind() == JobUpdate::STATE) states.push_back(u.job().state());
+    if (u.kind() == JobUpdate::LOG) logs.push_back(u.message());
+    if (u.kind() == JobUpdate::ROW) ks.push_back(u.row().k());
+    if (u.kind() == JobUpdate::PROGRESS) {
+      EXPECT_EQ(u.member(), 0);
+      EXPECT_EQ(u.seed(), 2u);
+      EXPECT_EQ(u.progress().k_total(), 2);
+      EXPECT_EQ(u.progress().phase(), "compressing");
+      EXPECT_GE(u.progress().k(), 0);
+      EXPECT_LE(u.progress().k(), 2);
+    }
+  }
+  EXPECT_EQ(states, (std::vector<gel::v1::JobState>{gel::v1::JOB_STATE_RUNNING, gel::v1::JOB_STATE_SUCCEEDED}));
+  EXPECT_EQ(ks, (std::vector<int>{0, 1, 2}));
+  // The manager's lines (member start and end) and the executor's own, in the order written.
+  ASSERT_EQ(logs.size(), 3u) << ::testing::PrintToString(logs);
+  EXPECT_EQ(logs[0].rfind("member 0 (seed 2) starts in ", 0), 0u) << logs[0];
+  EXPECT_EQ(logs[1], "executor log line for seed 2");
+  EXPECT_EQ(logs[2], "member 0 finished with 3 rows");
+  // Progress toward phi_k comes after row k - 1 and before row k (a watcher that falls behind
+  // gets only the latest progress, never a stale one after a newer row).
+  int rows_before = 0;
+  for (const auto& u : updates) {
+    if (u.kind() == JobUpdate::ROW) ++rows_before;
+    if (u.kind() == JobUpdate::PROGRESS) {
+      EXPECT_EQ(u.progress().k(), rows_before);
+    }
+  }
+}
+
+TEST_F(Service, TooManyWatchersIsResourceExhausted) {
+  Script& script = make_script();
+  script.rows = 2;
+  script.open_rows = 0;
+  geld::Limits limits;
+  limits.max_watchers = 2;
+  start(limits, 1, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json());
+  std::atomic<int> subscribed{0};
+  std::vector<std::vector<JobUpdate>> got(2);
+  std::vector<grpc::Status> statuses(2);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < 2; ++i) {
+    threads.emplace_back([&, i] {
+      got[i] = watch(id, &statuses[i], [&](const JobUpdate& u) {
+        if (u.kind() == JobUpdate::SNAPSHOT) ++subscribed;
+        return true;
+      });
+    });
+  }
+  ASSERT_TRUE(wait_for([&] { return subscribed.load() == 2; }));
+  EXPECT_EQ(daemon_->manager().active_watchers(), 2);
+  // A third stream on the same job is refused before it gets anything (if it were accepted,
+  // stop reading at its first update so the test does not wait for the job).
+  grpc::Status refused;
+  auto third = watch(id, &refused, [](const JobUpdate&) { return false; });
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  EXPECT_EQ(refused.error_message(), "too many watchers: the limit is 2");
+  EXPECT_TRUE(third.empty());
+  EXPECT_EQ(daemon_->manager().active_watchers(), 2);  // the refused one holds no slot
+  // The two accepted streams are unaffected and run to the end.
+  script.open();
+  for (auto& t : threads) t.join();
+  for (int i = 0; i < 2; ++i) {
+    ASSERT_TRUE(statuses[i].ok()) << statuses[i].error_message();
+    EXPECT_EQ(count_kind(got[i], JobUpdate::ROW), 2) << "watcher " << i;
+    EXPECT_EQ(got[i].back().job().state(), gel::v1::JOB_STATE_SUCCEEDED) << "watcher " << i;
+  }
+  // Their slots are given back: a new watcher is accepted.
+  ASSERT_TRUE(wait_for([&] { return daemon_->manager().active_watchers() == 0; }));
+  grpc::Status status;
+  auto after = watch(id, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_FALSE(after.empty());
+  EXPECT_EQ(after.front().job().state(), gel::v1::JOB_STATE_SUCCEEDED);
+}
+
+TEST_F(Service, OverLongNameIsInvalidArgumentNamingTheField) {
+  Script& script = make_script();
+  script.rows = 1;
+  start({}, 1, scripted(script));
+  std::string id;
+  auto status = submit(tiny_scene_json(), &id, {}, std::string(257, 'n'));
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_EQ(status.error_message().rfind("name: ", 0), 0u) << status.error_message();
+  EXPECT_NE(status.error_message().find("256"), std::string::npos) << status.error_message();
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 0);
+  // 256 characters is the longest accepted, and stored whole.
+  const std::string longest(256, 'n');
+  id = submit_ok(tiny_scene_json(), {}, longest);
+  ASSERT_FALSE(id.empty());
+  EXPECT_EQ(get(id).name(), longest);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs WHERE length(name) = 256"), 1);
+}
+
+TEST_F(Service, NegativePageSizeAndLimitsAreInvalidArgumentNamingTheField) {
+  Script& script = make_script();
+  script.rows = 1;
+  start({}, 1, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json());
+  watch(id);
+  ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  {
+    gel::v1::ListJobsRequest request;
+    request.set_page_size(-1);
+    gel::v1::ListJobsResponse response;
+    auto status = stub_->ListJobs(ctx().get(), request, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_EQ(status.error_message().rfind("page_size: ", 0), 0u) << status.error_message();
+    EXPECT_EQ(response.jobs_size(), 0);
+  }
+  {
+    gel::v1::QueryCurvesRequest request;
+    request.set_limit(-1);
+    gel::v1::QueryCurvesResponse response;
+    auto status = stub_->QueryCurves(ctx().get(), request, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_EQ(status.error_message().rfind("limit: ", 0), 0u) << status.error_message();
+    EXPECT_EQ(response.curves_size(), 0);
+  }
+  {
+    gel::v1::GetLogsRequest request;
+    request.set_job_id(id);
+    request.set_limit(-1);
+    gel::v1::GetLogsResponse response;
+    auto status = stub_->GetLogs(ctx().get(), request, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_EQ(status.error_message().rfind("limit: ", 0), 0u) << status.error_message();
+    EXPECT_EQ(response.lines_size(), 0);
+  }
+  // The same calls with 0 (the defaults) answer.
+  gel::v1::ListJobsRequest list_request;
+  gel::v1::ListJobsResponse list_response;
+  ASSERT_TRUE(stub_->ListJobs(ctx().get(), list_request, &list_response).ok());
+  EXPECT_EQ(list_response.jobs_size(), 1);
+  gel::v1::QueryCurvesRequest query_request;
+  gel::v1::QueryCurvesResponse query_response;
+  ASSERT_TRUE(stub_->QueryCurves(ctx().get(), query_request, &query_response).ok());
+  EXPECT_EQ(query_response.curves_size(), 1);
+  gel::v1::GetLogsRequest logs_request;
+  logs_request.set_job_id(id);
+  gel::v1::GetLogsResponse logs_response;
+  ASSERT_TRUE(stub_->GetLogs(ctx().get(), logs_request, &logs_response).ok());
+  EXPECT_GE(logs_response.lines_size(), 2);
+}
+
+TEST_F(Service, SceneAndSceneJsonTogetherIsInvalidArgument) {
+  Script& script = make_script();
+  script.rows = 1;
+  start({}, 1, scripted(script));
+  gel::v1::SubmitJobRequest request;
+  auto* scene = request.mutable_scene();
+  scene->set_preset("quick");
+  scene->mutable_generator()->set_n_floc(8);
+  scene->mutable_generator()->set_n_clusters(8);
+  scene->mutable_generator()->set_lx(30);
+  scene->mutable_generator()->set_ly(50);
+  scene->mutable_compression()->set_fidelity("fast");
+  scene->mutable_compression()->set_steps(3);
+  request.set_scene_json(tiny_scene_json());
+  gel::v1::SubmitJobResponse response;
+  auto status = stub_->SubmitJob(ctx().get(), request, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_EQ(status.error_message().rfind("scene: ", 0), 0u) << status.error_message();
+  EXPECT_NE(status.error_message().find("not both"), std::string::npos) << status.error_message();
+  EXPECT_TRUE(response.job_id().empty());
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 0);
+  // Each of the two alone is accepted.
+  request.clear_scene_json();
+  status = stub_->SubmitJob(ctx().get(), request, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(get(response.job_id()).particles(), 64);
+  request.clear_scene();
+  request.set_scene_json(tiny_scene_json());
+  status = stub_->SubmitJob(ctx().get(), request, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 2);
+}
+
+// While alive, this process cannot write to any regular file at or past `bytes` (EFBIG, as with
+// an exhausted quota or a full disk; SIGXFSZ ignored meanwhile): every SQLite commit fails for
+// real in the kernel, reads do not.
+class FileWritesFail {
+ public:
+  // Only the soft limit changes (the hard one stays), so any user can set it back.
+  explicit FileWritesFail(rlim_t bytes) {
+    if (getrlimit(RLIMIT_FSIZE, &saved_) != 0) {
+      ADD_FAILURE() << "getrlimit: " << std::strerror(errno);
+      return;
+    }
+    saved_handler_ = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit = saved_;
+    limit.rlim_cur = bytes;
+    active_ = setrlimit(RLIMIT_FSIZE, &limit) == 0;
+    EXPECT_TRUE(active_) << "setrlimit: " << std::strerror(errno);
+  }
+  ~FileWritesFail() {
+    if (active_) setrlimit(RLIMIT_FSIZE, &saved_);
+    if (saved_handler_ != SIG_ERR) std::signal(SIGXFSZ, saved_handler_);
+  }
+  FileWritesFail(const FileWritesFail&) = delete;
+  FileWritesFail& operator=(const FileWritesFail&) = delete;
+
+ private:
+  rlimit saved_{};
+  bool active_ = false;
+  void (*saved_handler_)(int) = SIG_ERR;
+};
+
+TEST_F(Service, StoreWriteFailureIsInternalAndReadsGoOn) {
+  Script& script = make_script();
+  script.rows = 2;
+  start({}, 1, scripted(script));
+  const std::string done = submit_ok(tiny_scene_json(), {}, "before");
+  watch(done);
+  ASSERT_EQ(get(done).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  grpc::Status submit_status, get_status, list_status, curve_status;
+  std::string refused;
+  gel::v1::Job job_during;
+  gel::v1::ListJobsResponse list_during;
+  gel::v1::GetCurveResponse curve_during;
+  {
+    FileWritesFail fault(1);
+    submit_status = submit(tiny_scene_json(), &refused, {}, "during");
+    // Reads while the disk still refuses writes.
+    gel::v1::GetJobRequest get_request;
+    get_request.set_job_id(done);
+    get_status = stub_->GetJob(ctx().get(), get_request, &job_during);
+    list_status = stub_->ListJobs(ctx().get(), gel::v1::ListJobsRequest(), &list_during);
+    gel::v1::GetCurveRequest curve_request;
+    curve_request.set_job_id(done);
+    curve_status = stub_->GetCurve(ctx().get(), curve_request, &curve_during);
+  }
+  EXPECT_EQ(submit_status.error_code(), grpc::StatusCode::INTERNAL) << submit_status.error_message();
+  EXPECT_EQ(submit_status.error_message().rfind("store: ", 0), 0u) << submit_status.error_message();
+  EXPECT_NE(submit_status.error_message().find("disk I/O error"), std::string::npos) << submit_status.error_message();
+  EXPECT_TRUE(refused.empty());
+  ASSERT_TRUE(get_status.ok()) << get_status.error_message();
+  EXPECT_EQ(job_during.state(), gel::v1::JOB_STATE_SUCCEEDED);
+  ASSERT_TRUE(list_status.ok()) << list_status.error_message();
+  ASSERT_EQ(list_during.jobs_size(), 1);  // the refused job was not stored
+  EXPECT_EQ(list_during.jobs(0).id(), done);
+  ASSERT_TRUE(curve_status.ok()) << curve_status.error_message();
+  EXPECT_EQ(curve_during.members(0).curve().rows_size(), 2);
+  // Once writes work again, so does the daemon.
+  const std::string after = submit_ok(tiny_scene_json(), {}, "after");
+  ASSERT_FALSE(after.empty());
+  watch(after);
+  EXPECT_EQ(get(after).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 2);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs WHERE name = 'during'"), 0);
+}
+
+TEST_F(Service, RealEngineInstabilityFailsTheJobWithTheEngineMessage) {
+  // dt at half the shortest natural period: the real engine's stability guard stops the run
+  // within its first steps (gelsim exits 3 on this scene).
+  const std::string unstable =
+      R"({"preset": "quick", "integration": {"dt_fraction": 0.5},
+          "compression": {"fidelity": "fast", "steps": 2, "phi_max": 0.2}})";
+  start({}, 1);
+  const std::string id = submit_ok(unstable);
+  grpc::Status status;
+  auto updates = watch(id, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_FALSE(updates.empty());
+  EXPECT_EQ(updates.back().job().state(), gel::v1::JOB_STATE_FAILED);
+  const auto job = get(id);
+  ASSERT_EQ(job.state(), gel::v1::JOB_STATE_FAILED);
+  EXPECT_GT(job.finished_unix_ms(), 0);
+  // The job's error is the engine's own StabilityError message for this scene and seed.
+  std::string expected;
+  try {
+    (void)gel::run_compression(job.scene(), gel::RunOptions{});
+    ADD_FAILURE() << "the scene ran without an instability";
+  } catch (const gel::StabilityError& e) {
+    expected = e.what();
+  }
+  ASSERT_FALSE(expected.empty());
+  EXPECT_EQ(job.error(), expected);
+  EXPECT_NE(job.error().find("reduce integration.dt_fraction"), std::string::npos) << job.error();
+  // The log says which member failed and why; nothing was passed off as a finished member.
+  gel::v1::GetLogsRequest logs_request;
+  logs_request.set_job_id(id);
+  gel::v1::GetLogsResponse logs;
+  ASSERT_TRUE(stub_->GetLogs(ctx().get(), logs_request, &logs).ok());
+  bool logged = false;
+  for (const auto& line : logs.lines()) logged |= line.level() == "error" && line.message() == "member 0: " + expected;
+  EXPECT_TRUE(logged);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM member_finished WHERE job_id = '" + id + "'"), 0);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs WHERE id = '" + id + "' AND state = 'failed'"), 1);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM states WHERE job_id = '" + id + "'"), 3);  // queued running failed
 }
 
 TEST(Store, MigratesFromAnOlderSchemaVersion) {
