@@ -12,38 +12,10 @@
 #include "gel/errors.hpp"
 #include "gel/system.hpp"
 #include "gel/units.hpp"
+#include "test_scenes.hpp"
 
 namespace gel {
 namespace {
-
-SimParams bond1_params(unsigned effects) {
-  SimParams params;
-  params.bond = bond_preset("bond1");
-  params.effects = effects;
-  params.dt = params.dt_fraction * shortest_period(params.bond);
-  return params;
-}
-
-// Two particles along x at distance 2a + gap, bonded at contact (contact points along n).
-Configuration bonded_pair(double gap, double theta_i = 0, double theta_j = 0) {
-  Configuration config;
-  config.lx = config.ly = 40;
-  config.periodic_y = false;
-  config.add_particle(10, 10, 0);
-  config.add_particle(10 + kDiameter, 10, 0);
-  config.add_bond_at_contact(0, 1);
-  config.x[1] += gap;
-  config.theta[0] = theta_i;
-  config.theta[1] = theta_j;
-  return config;
-}
-
-constexpr unsigned kSprings = kNormalSpring | kOverlapRepulsion | kSliding | kRolling;
-
-double pair_gap(const System& system) {
-  const double dx = system.x()[1] - system.x()[0], dy = system.y()[1] - system.y()[0];
-  return std::sqrt(dx * dx + dy * dy) - kDiameter;
-}
 
 TEST(Engine, BondedPairOscillatesAtTheNormalSpringFrequency) {
   SimParams params = bond1_params(kNormalSpring);

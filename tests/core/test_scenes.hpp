@@ -1,6 +1,9 @@
 #pragma once
 // Small scenes shared by the engine tests.
+#include <cmath>
+
 #include "gel/configuration.hpp"
+#include "gel/system.hpp"
 #include "gel/units.hpp"
 
 namespace gel {
@@ -26,6 +29,38 @@ inline Configuration pair_along_x(double gap) {
   config.add_bond_at_contact(0, 1);
   config.x[1] += gap;
   return config;
+}
+
+// Bond-1 parameters with the given effects and the default time-step rule.
+inline SimParams bond1_params(unsigned effects) {
+  SimParams params;
+  params.bond = bond_preset("bond1");
+  params.effects = effects;
+  params.dt = params.dt_fraction * shortest_period(params.bond);
+  return params;
+}
+
+// Two particles along x at distance 2a + gap, bonded at contact (contact points along n),
+// turned by theta_i and theta_j.
+inline Configuration bonded_pair(double gap, double theta_i = 0, double theta_j = 0) {
+  Configuration config;
+  config.lx = config.ly = 40;
+  config.periodic_y = false;
+  config.add_particle(10, 10, 0);
+  config.add_particle(10 + kDiameter, 10, 0);
+  config.add_bond_at_contact(0, 1);
+  config.x[1] += gap;
+  config.theta[0] = theta_i;
+  config.theta[1] = theta_j;
+  return config;
+}
+
+inline constexpr unsigned kSprings = kNormalSpring | kOverlapRepulsion | kSliding | kRolling;
+
+// Surface gap of particles 0 and 1.
+inline double pair_gap(const System& system) {
+  const double dx = system.x()[1] - system.x()[0], dy = system.y()[1] - system.y()[0];
+  return std::sqrt(dx * dx + dy * dy) - kDiameter;
 }
 
 }  // namespace gel
