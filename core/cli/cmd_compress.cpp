@@ -13,6 +13,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -107,6 +108,10 @@ class ProgressFile {
  public:
   explicit ProgressFile(const std::string& path) {
     if (path.empty()) return;
+    // Usually inside the run's own --out directory, which does not exist yet.
+    const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+    std::error_code error;
+    if (!parent.empty()) std::filesystem::create_directories(parent, error);
     out_.open(path, std::ios::app);
     if (!out_) throw gel::InvalidArgument("--progress-file", "cannot open '" + path + "' for appending");
   }
@@ -447,7 +452,12 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--scene", args->scene_file, "scene JSON (gel.v1.Scene); options below override it");
   sub.add_option("--config", args->config_file, "start from this configuration instead of generating a gel");
   sub.add_option("--bond", args->bond, "bond preset: bond1, bond2");
-  sub.add_option("--seed", args->seed, "generator seed");
+  sub.add_option("--seed", args->seed, "generator seed (0 .. 2^64-1; a negative number is refused, not wrapped)")
+      ->check(CLI::Validator(
+          [](std::string& value) {
+            return value.find('-') == std::string::npos ? std::string() : "must be 0 or more, got " + value;
+          },
+          "UINT"));
   sub.add_option("--seeds", args->seeds, "an ensemble: seeds 1-10 or 1,4,7-9, each member in OUT/seed_<seed>");
   sub.add_option("--threads", args->threads, "engine threads per run (results are bit-identical for any number)")
       ->check(CLI::Range(1, 1024));
@@ -460,7 +470,16 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_flag("--json", args->json, "print the curve as one JSON object (curve.json's format)");
   sub.add_flag("--no-snapshots", args->no_snapshots, "write no configuration snapshots");
   sub.add_option("--phi-max", args->phi_max, "last target packing fraction");
-  sub.add_option("--steps", args->steps, "k', the number of targets");
+  sub.add_option("--steps", args->steps, "k', the number of targets (at least 1; leave it out for the preset's)")
+      ->check(CLI::Validator(
+          [](std::string& value) {
+            // 0 meant "the preset's" without saying so: refused, as leaving the flag out says that.
+            char* end = nullptr;
+            const long long steps = std::strtoll(value.c_str(), &end, 10);
+            return end && *end == '\0' && steps >= 1 ? std::string()
+                                                      : "must be a whole number >= 1 (leave it out for the preset's), got " + value;
+          },
+          "INT"));
   sub.add_option("--w0", args->w0, "phi_1 = w0 phi_0");
   sub.add_option("--v-wall", args->v_wall, "wall speed, each wall [a/t0]");
   sub.add_option("--v-wall-v0", args->v_wall_v0, "wall speed in units of v0 = a sqrt(k_R/m)");

@@ -79,4 +79,18 @@ set -e
 [ "$code" -eq 2 ] || fail "a bad scene exits 2, got $code: $(cat "$WORK/bad.out")"
 grep -q "dt_fraction" "$WORK/bad.out" || fail "the error does not name the field: $(cat "$WORK/bad.out")"
 [ ! -e "$WORK/bad/curve.json" ] || fail "a refused scene wrote a curve"
+# 5. Integers are validated, not wrapped or silently defaulted; a progress file inside a run
+#    directory that does not exist yet (the README's example) works.
+for bad in "--seed -1" "--steps 0"; do
+  set +e
+  # shellcheck disable=SC2086
+  "$GELSIM" compress --preset quick $bad --out "$WORK/int" > "$WORK/int.out" 2>&1
+  code=$?
+  set -e
+  [ "$code" -eq 2 ] || fail "'$bad' exits 2, got $code: $(cat "$WORK/int.out")"
+  grep -q -- "${bad%% *}" "$WORK/int.out" || fail "'$bad' refused without naming the flag: $(cat "$WORK/int.out")"
+done
+"$GELSIM" compress --preset quick --fidelity fast --steps 2 --phi-max 0.2 --no-snapshots --out "$WORK/runs/b1" \
+  --progress-file "$WORK/runs/b1/progress.jsonl" > /dev/null 2>&1 || fail "a progress file in the new run directory"
+grep -q '"type":"done"' "$WORK/runs/b1/progress.jsonl" || fail "no done line in the progress file"
 echo "gelsim failure paths: ok"
