@@ -1,7 +1,13 @@
 #include "job_manager.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <filesystem>
 
@@ -43,12 +49,40 @@ struct WatcherSlot {
 JobManager::JobManager(ManagerOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor)
     : options_(std::move(options)), engine_(std::move(engine)), executor_(std::move(executor)) {
   fs::create_directories(fs::path(options_.data_dir) / "jobs");
+  // One daemon per data dir: two would both run the queued jobs, in the same job directories.
+  // flock() is released by the kernel when a daemon dies, so a SIGKILL leaves no stale lock.
+  const std::string lock_path = (fs::path(options_.data_dir) / "geld.lock").string();
+  data_dir_lock_ = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+  if (data_dir_lock_ < 0) throw std::runtime_error("cannot open " + lock_path + ": " + std::strerror(errno));
+  if (::flock(data_dir_lock_, LOCK_EX | LOCK_NB) != 0) {
+    char holder[32] = {};
+    const ssize_t n = ::pread(data_dir_lock_, holder, sizeof holder - 1, 0);
+    ::close(data_dir_lock_);
+    data_dir_lock_ = -1;
+    std::string pid(holder, n > 0 ? static_cast<std::size_t>(n) : 0);
+    while (!pid.empty() && (pid.back() == '\n' || pid.back() == ' ')) pid.pop_back();
+    throw std::runtime_error("data dir " + options_.data_dir + " is in use by another geld" +
+                             (pid.empty() ? "" : " (pid " + pid + ")") +
+                             ": two daemons on one data dir would run the same jobs");
+  }
+  const std::string pid = std::to_string(::getpid()) + "\n";
+  if (::ftruncate(data_dir_lock_, 0) != 0 || ::pwrite(data_dir_lock_, pid.data(), pid.size(), 0) < 0)
+    spdlog::warn("cannot write the pid into {}", lock_path);
   store_ = std::make_unique<Store>(options_.db_path.empty() ? (fs::path(options_.data_dir) / "geld.sqlite").string()
                                                           : options_.db_path);
   if (options_.workers <= 0) options_.workers = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
-JobManager::~JobManager() { shutdown(); }
+JobManager::~JobManager() {
+  shutdown();
+  release_data_dir();
+}
+
+void JobManager::release_data_dir() {
+  if (data_dir_lock_ < 0) return;
+  ::close(data_dir_lock_);  // releases the flock
+  data_dir_lock_ = -1;
+}
 
 std::string JobManager::require_id(const std::string& id) {
   if (id.empty()) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "job_id: must not be empty");
@@ -95,6 +129,7 @@ void JobManager::shutdown() {
   queue_changed_.notify_all();
   for (auto& worker : workers_) worker.join();
   workers_.clear();
+  release_data_dir();  // no job runs from here on: the next daemon may take the data dir
   spdlog::info("job manager stopped");
 }
 

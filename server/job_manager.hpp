@@ -140,7 +140,10 @@ class JobManager {
   std::vector<gel::v1::JobUpdate> stored_rows(const std::string& id, std::int64_t sequence);
   static std::string require_id(const std::string& id);
 
+  void release_data_dir();
+
   ManagerOptions options_;
+  int data_dir_lock_ = -1;  // flock()ed data_dir/geld.lock, held while this manager may run jobs
   std::shared_ptr<Engine> engine_;
   std::shared_ptr<Executor> executor_;
   std::unique_ptr<Store> store_;

@@ -1378,6 +1378,37 @@ TEST_F(Service, RealEngineInstabilityFailsTheJobWithTheEngineMessage) {
   EXPECT_EQ(sqlite_count("SELECT count(*) FROM states WHERE job_id = '" + id + "'"), 3);  // queued running failed
 }
 
+TEST(Daemon, ASecondDaemonOnTheSameDataDirOrPortRefusesToStart) {
+  // Two daemons on one data dir both ran the queued jobs in the same job directories, and a
+  // second one on the same port started silently (SO_REUSEPORT) and took half the clients.
+  TempDir dir, other;
+  auto make = [](const std::string& data, const std::string& listen) {
+    geld::DaemonOptions options;
+    options.listen = listen;
+    options.manager.data_dir = data;
+    options.manager.workers = 1;
+    return std::make_unique<geld::Daemon>(options, geld::make_compression_engine(), geld::make_thread_executor());
+  };
+  auto first = make(dir.path(), "127.0.0.1:0");
+  first->start();
+  try {
+    auto second = make(dir.path(), "127.0.0.1:0");
+    second->start();
+    ADD_FAILURE() << "a second daemon started on a data dir in use";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("in use by another geld (pid " + std::to_string(::getpid()) + ")"), std::string::npos)
+        << e.what();
+  }
+  auto same_port = make(other.path(), "127.0.0.1:" + std::to_string(first->port()));
+  EXPECT_THROW(same_port->start(), std::runtime_error);
+  same_port.reset();
+  // Once the first has shut down, the data dir is free again.
+  first->shutdown();
+  auto next = make(dir.path(), "127.0.0.1:0");
+  EXPECT_NO_THROW(next->start());
+  next->shutdown();
+}
+
 TEST(Store, MigratesFromAnOlderSchemaVersion) {
   TempDir dir;
   const std::string path = (fs::path(dir.path()) / "geld.sqlite").string();
