@@ -37,17 +37,31 @@ grpc::Status check_metadata(const std::multimap<grpc::string_ref, grpc::string_r
   return grpc::Status::OK;
 }
 
-// Remote mode: every call (health and reflection included) without the token ends
-// UNAUTHENTICATED. GelService's handlers check the token themselves before doing anything;
-// this interceptor covers the services geld does not implement itself (their read-only answer
-// is replaced by the error status).
+// Remote mode: every call (health and reflection included) without the token is refused.
+// GelService's handlers check the token themselves before doing anything; this interceptor
+// covers the services geld does not implement itself: a unary answer (health Check) has its
+// status replaced by UNAUTHENTICATED, a stream (health Watch, reflection) is cancelled before
+// its first message carries anything.
 class TokenInterceptor final : public grpc::experimental::Interceptor {
  public:
-  explicit TokenInterceptor(std::shared_ptr<const std::string> token) : token_(std::move(token)) {}
+  TokenInterceptor(std::shared_ptr<const std::string> token, grpc::experimental::ServerRpcInfo* info)
+      : token_(std::move(token)), info_(info) {}
   void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
     using grpc::experimental::InterceptionHookPoints;
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
       if (auto* metadata = methods->GetRecvInitialMetadata()) status_ = check_metadata(*metadata, *token_);
+    }
+    // A streaming handler that does not check the token itself (health Watch, reflection) would
+    // answer before its status could say UNAUTHENTICATED, and a Watch never ends on its own:
+    // its message goes out empty and the call is cancelled at once.
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_MESSAGE) && !status_.ok() &&
+        info_->type() != grpc::experimental::ServerRpcInfo::Type::UNARY) {
+      if (auto* message = methods->GetSerializedSendMessage()) *message = grpc::ByteBuffer();
+      if (!cancelled_) {
+        cancelled_ = true;
+        spdlog::warn("{}: {}; stream cancelled", info_->method(), status_.error_message());
+        info_->server_context()->TryCancel();
+      }
     }
     if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS) && !status_.ok()) {
       methods->ModifySendStatus(status_);
@@ -57,14 +71,16 @@ class TokenInterceptor final : public grpc::experimental::Interceptor {
 
  private:
   std::shared_ptr<const std::string> token_;
+  grpc::experimental::ServerRpcInfo* info_;
   grpc::Status status_;
+  bool cancelled_ = false;
 };
 
 class TokenInterceptorFactory final : public grpc::experimental::ServerInterceptorFactoryInterface {
  public:
   explicit TokenInterceptorFactory(std::string token) : token_(std::make_shared<const std::string>(std::move(token))) {}
-  grpc::experimental::Interceptor* CreateServerInterceptor(grpc::experimental::ServerRpcInfo*) override {
-    return new TokenInterceptor(token_);
+  grpc::experimental::Interceptor* CreateServerInterceptor(grpc::experimental::ServerRpcInfo* info) override {
+    return new TokenInterceptor(token_, info);
   }
 
  private:

@@ -622,6 +622,40 @@ grpc::Status health_check(const std::shared_ptr<grpc::Channel>& channel, const s
   return status;
 }
 
+// grpc.health.v1.Health/Watch (server streaming) through a generic stub: the first message's
+// bytes (if one came) and the final status. With a valid token the first message says SERVING
+// and the test then cancels the stream itself.
+grpc::Status health_watch(const std::shared_ptr<grpc::Channel>& channel, const std::string& token, std::string* first) {
+  grpc::GenericStub stub(channel);
+  grpc::ClientContext context;
+  if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
+  context.set_deadline(std::chrono::system_clock::now() + 10s);
+  grpc::CompletionQueue cq;
+  void* tag = nullptr;
+  bool ok = false;
+  auto call = stub.PrepareCall(&context, "/grpc.health.v1.Health/Watch", &cq);
+  call->StartCall(reinterpret_cast<void*>(1));
+  cq.Next(&tag, &ok);
+  grpc::Slice empty("");
+  grpc::ByteBuffer request(&empty, 1), response;
+  call->WriteLast(request, grpc::WriteOptions(), reinterpret_cast<void*>(2));
+  cq.Next(&tag, &ok);
+  call->Read(&response, reinterpret_cast<void*>(3));
+  cq.Next(&tag, &ok);
+  first->clear();
+  std::vector<grpc::Slice> slices;
+  if (ok && response.Dump(&slices).ok())
+    for (const auto& slice : slices) first->append(reinterpret_cast<const char*>(slice.begin()), slice.size());
+  if (ok && *first == std::string("\x08\x01", 2)) context.TryCancel();
+  grpc::Status status;
+  call->Finish(&status, reinterpret_cast<void*>(4));
+  cq.Next(&tag, &ok);
+  cq.Shutdown();
+  while (cq.Next(&tag, &ok)) {
+  }
+  return status;
+}
+
 TEST_F(Service, HealthServiceAnswers) {
   start();
   bool serving = false;
@@ -665,6 +699,16 @@ TEST_F(Service, RemoteModeRequiresTheToken) {
   EXPECT_EQ(health_check(channel_, "", &serving).error_code(), grpc::StatusCode::UNAUTHENTICATED);
   EXPECT_TRUE(health_check(channel_, token, &serving).ok());
   EXPECT_TRUE(serving);
+  // The health Watch stream answered SERVING before its status could refuse it: now it ends at
+  // once, without the status, and only with the token does it report SERVING.
+  std::string first;
+  const auto watch_start = std::chrono::steady_clock::now();
+  const grpc::Status refused = health_watch(channel_, "", &first);
+  EXPECT_FALSE(refused.ok());
+  EXPECT_NE(first, std::string("\x08\x01", 2)) << "the serving status leaked without the token";
+  EXPECT_LT(std::chrono::steady_clock::now() - watch_start, 5s) << "the refused stream stayed open";
+  health_watch(channel_, token, &first);
+  EXPECT_EQ(first, std::string("\x08\x01", 2));
   // Watch too.
   gel::v1::WatchJobRequest watch_request;
   watch_request.set_job_id(id);
