@@ -200,9 +200,20 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
                    "seeds: " + std::to_string(request.seeds_size()) + " ensemble members, the limit is " +
                        std::to_string(options_.limits.max_seeds));
   }
+  // Labels are listed with every job: 20 000 of them made ListJobs answers too large to read.
+  constexpr int kMaxLabels = 64;
+  constexpr std::size_t kMaxLabelSize = 256;
+  if (request.labels_size() > kMaxLabels) {
+    throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
+                   "labels: " + std::to_string(request.labels_size()) + " labels, the limit is " + std::to_string(kMaxLabels));
+  }
   for (const auto& [key, value] : request.labels()) {
     if (key.empty() || key.find('=') != std::string::npos) {
-      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "labels: key '" + key + "' must be non-empty without '='");
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "labels: key '" + key.substr(0, 64) + "' must be non-empty without '='");
+    }
+    if (key.size() > kMaxLabelSize || value.size() > kMaxLabelSize) {
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "labels: key '" + key.substr(0, 64) + "': key and value are limited to " +
+                                                             std::to_string(kMaxLabelSize) + " characters each");
     }
   }
   if (request.name().size() > 256) {

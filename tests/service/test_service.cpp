@@ -6,6 +6,8 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <cstdio>
+
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -1222,6 +1224,22 @@ TEST_F(Service, OverLongNameIsInvalidArgumentNamingTheField) {
   ASSERT_FALSE(id.empty());
   EXPECT_EQ(get(id).name(), longest);
   EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs WHERE length(name) = 256"), 1);
+}
+
+TEST_F(Service, TooManyOrTooLongLabelsAreInvalidArgumentNamingTheField) {
+  start();
+  std::map<std::string, std::string> many;
+  for (int i = 0; i < 65; ++i) many.emplace(std::to_string(1000 + i), "v");
+  std::string id;
+  grpc::Status status = submit(tiny_scene_json(), &id, {}, "", many);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message().rfind("labels: 65 labels, the limit is 64", 0), 0u) << status.error_message();
+  status = submit(tiny_scene_json(), &id, {}, "", {{"k", std::string(257, 'v')}});
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message().rfind("labels: key 'k'", 0), 0u) << status.error_message();
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 0);
+  many.erase("1000");
+  EXPECT_TRUE(submit(tiny_scene_json(), &id, {}, "", many).ok());
 }
 
 TEST_F(Service, NegativePageSizeAndLimitsAreInvalidArgumentNamingTheField) {
