@@ -156,6 +156,13 @@ class CompressionEngine final : public Engine {
     }
     const auto& g = prepared.scene.generator();
     prepared.particles = static_cast<std::int64_t>(g.n_floc()) * static_cast<std::int64_t>(g.n_clusters());
+    // A job always generates its gel: a scene without a generator would be accepted here and
+    // fail only when a worker took it.
+    if (prepared.particles <= 0) {
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
+                     "scene.generator: no gel to generate (give scene.preset, generator.preset, or generator.n_floc and "
+                     "generator.n_clusters)");
+    }
     if (prepared.particles > limits.max_particles) throw too_large(prepared.particles, limits);
     prepared.bond_preset = prepared.scene.bond().preset();
     flatten(prepared.scene, "", prepared.parameters);

@@ -1224,6 +1224,16 @@ TEST_F(Service, OverLongNameIsInvalidArgumentNamingTheField) {
   EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs WHERE length(name) = 256"), 1);
 }
 
+TEST_F(Service, AnEmptySceneIsRefusedAtSubmit) {
+  // It used to be accepted and to fail only when a worker took it.
+  start();
+  std::string id;
+  const grpc::Status status = submit("{}", &id);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message().rfind("scene.generator: no gel to generate", 0), 0u) << status.error_message();
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 0);
+}
+
 TEST_F(Service, TooManyOrTooLongLabelsAreInvalidArgumentNamingTheField) {
   start();
   std::map<std::string, std::string> many;
