@@ -2,8 +2,10 @@
 // work, checkpoint running jobs, exit 0. Exit 2 on bad flags or configuration.
 #include <pthread.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -87,6 +89,14 @@ std::string default_gelsim() {
 }
 
 std::string read_token(const std::string& path) {
+  // A token others can read is no secret: refused, as ssh refuses a readable private key.
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) throw std::invalid_argument("token-file: cannot read " + path);
+  if ((info.st_mode & 077) != 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(info.st_mode & 07777));
+    throw std::invalid_argument("token-file: " + path + " is readable by others (mode " + mode + "); chmod 600 it");
+  }
   std::ifstream in(path);
   if (!in) throw std::invalid_argument("token-file: cannot read " + path);
   std::string token;
@@ -185,6 +195,10 @@ int main(int argc, char** argv) {
   geld::ExecutorConfig executor_config;
   executor_config.name = executor_name;
   executor_config.gelsim_path = gelsim.empty() ? default_gelsim() : gelsim;
+  // The store and the jobs' files are the user's data: not readable by other users of the
+  // machine, however geld was started (the systemd unit sets the same with UMask=).
+  ::umask(077);
+
   try {
     if (!token_file.empty()) options.token = read_token(token_file);
     fs::create_directories(options.manager.data_dir);

@@ -53,6 +53,9 @@ job=$(head -n 1 "$work/watch.txt")
 [[ $job =~ ^job-[0-9]+$ ]] || fail "first line of submit is not a job id: $job"
 grep -qxF "$job: succeeded" "$work/watch.txt" || fail "watch did not show success"
 [ "$(grep -c '^  k' "$work/watch.txt")" -eq 4 ] || fail "watch did not show 4 rows"
+# The store and the job files are not readable by other users, however geld was started.
+[ "$(stat -c %a "$data/geld.sqlite")" = 600 ] || fail "geld.sqlite has mode $(stat -c %a "$data/geld.sqlite"), expected 600"
+[ "$(stat -c %a "$data")" = 700 ] || fail "the data dir has mode $(stat -c %a "$data"), expected 700"
 ctl status "$job" --json >"$work/status.json"
 $py - "$work/status.json" <<'PY' || fail "status --json"
 import json, sys
@@ -217,6 +220,9 @@ status=0
 "$geld" --listen "0.0.0.0:$(free_port)" --data-dir "$work/remote" >"$work/remote.log" 2>&1 || status=$?
 [ "$status" -eq 2 ] || fail "geld on 0.0.0.0 without --token-file exited $status, expected 2"
 echo "e2e-token-$$" >"$work/token"
+chmod 644 "$work/token"
+expect 2 "readable by others" -- "$geld" --listen "0.0.0.0:0" --token-file "$work/token" --data-dir "$work/remote"
+chmod 600 "$work/token"
 rport=$(free_port)
 "$geld" --listen "0.0.0.0:$rport" --token-file "$work/token" --data-dir "$work/remote" >"$work/remote.log" 2>&1 &
 geld_pid=$!
