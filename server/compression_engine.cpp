@@ -1,6 +1,7 @@
 // The compression engine behind geld: submissions are resolved and validated by gelcore, and
 // the "threads" executor runs members in-process with gel::run_compression.
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 
@@ -12,6 +13,7 @@
 #include "gel/compression.hpp"
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
+#include "gel/system.hpp"
 #include "gel/errors.hpp"
 #include "gel/generator.hpp"
 #include "job_manager.hpp"
@@ -164,6 +166,33 @@ class CompressionEngine final : public Engine {
                      "generator.n_clusters)");
     }
     if (prepared.particles > limits.max_particles) throw too_large(prepared.particles, limits);
+    // Valid values that cannot finish (v_wall = 1e-300, dt = 1e-300, m_exam = 9e18) would hold a
+    // worker for ever: refused by the steps the walls need to close the box, 100x the largest preset.
+    {
+      constexpr double kMaxWallSteps = 1e10;
+      constexpr std::int64_t kMaxExamSteps = 100'000'000;
+      const auto& c = prepared.scene.compression();
+      if (c.m_exam() > kMaxExamSteps) {
+        throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "scene.compression.m_exam: " + std::to_string(c.m_exam()) +
+                                                               " steps, the limit is " + std::to_string(kMaxExamSteps));
+      }
+      double dt = 0;
+      try {
+        dt = gel::resolve_sim_params(prepared.scene).dt;
+      } catch (const gel::InvalidArgument& e) {
+        throw invalid(e, "scene.");
+      }
+      const double wall_steps = g.ly() / (2.0 * c.v_wall() * dt);
+      if (!(wall_steps <= kMaxWallSteps)) {
+        char text[160];
+        std::snprintf(text, sizeof text, "about %.3g steps to close the box (L_y / (2 v_wall dt)), the limit is %.0e",
+                      wall_steps, kMaxWallSteps);
+        // Blamed on whichever is further below its usual size (v_wall ~ 1e-3 a/t0, dt ~ 1e-2 t0).
+        const bool wall_too_slow = c.v_wall() / 1e-3 < dt / 1e-2;
+        throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
+                       std::string(wall_too_slow ? "scene.compression.v_wall" : "scene.integration.dt") + ": " + text);
+      }
+    }
     prepared.bond_preset = prepared.scene.bond().preset();
     flatten(prepared.scene, "", prepared.parameters);
     prepared.scene_json = gel::scene_to_json(prepared.scene);

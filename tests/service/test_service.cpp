@@ -1234,6 +1234,27 @@ TEST_F(Service, AnEmptySceneIsRefusedAtSubmit) {
   EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 0);
 }
 
+TEST_F(Service, ScenesThatCouldNeverFinishAreRefusedNamingTheField) {
+  // Each value is valid on its own, and each would hold a worker for ever.
+  start();
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {R"({"preset": "quick", "compression": {"v_wall": 1e-300}})", "scene.compression.v_wall: "},
+      {R"({"preset": "quick", "integration": {"dt": 1e-300}})", "scene.integration.dt: "},
+      {R"({"preset": "quick", "compression": {"m_exam": 9000000000000000000}})", "scene.compression.m_exam: "},
+  };
+  for (const auto& [scene, field] : cases) {
+    std::string id;
+    const grpc::Status status = submit(scene, &id);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << scene;
+    EXPECT_EQ(status.error_message().rfind(field, 0), 0u) << status.error_message();
+  }
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 0);
+  // The largest preset is far inside the limit.
+  std::string id;
+  const grpc::Status ok = submit(R"({"preset": "paper-bond2-16x"})", &id);
+  EXPECT_TRUE(ok.ok()) << ok.error_message();
+}
+
 TEST_F(Service, TooManyOrTooLongLabelsAreInvalidArgumentNamingTheField) {
   start();
   std::map<std::string, std::string> many;
