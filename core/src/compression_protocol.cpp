@@ -39,7 +39,19 @@ constexpr std::int64_t kChunkSteps = 128;
 constexpr char kCheckpointFile[] = "checkpoint.bin";
 // Version 2 added the adaptive wall's controller state, version 3 the quasi-static method's
 // relaxation state (and the rupture count of the third equilibrium test).
-constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '3'};
+// Version 4 ends with a 64-bit FNV-1a hash of everything after the magic: a flipped bit in the
+// stored doubles used to parse fine and resume a corrupted run. Version 3 (no hash) still reads.
+constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '4'};
+constexpr char kCheckpointMagicV3[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '3'};
+
+std::uint64_t fnv1a(const char* data, std::size_t size) {
+  std::uint64_t hash = 14695981039346656037ull;
+  for (std::size_t i = 0; i < size; ++i) {
+    hash ^= static_cast<unsigned char>(data[i]);
+    hash *= 1099511628211ull;
+  }
+  return hash;
+}
 
 // Quasi-static approach: at most this many contact-to-contact jumps per target before the walls
 // move, and the overlap each jump ends with so that the touching pair bonds [a].
@@ -547,6 +559,7 @@ class CompressionRun {
     put_block(bytes, curve_.SerializeAsString());
     put_block(bytes, encode_state(state));
     put_block(bytes, system_.save_state());
+    put(bytes, fnv1a(bytes.data() + sizeof kCheckpointMagic, bytes.size() - sizeof kCheckpointMagic));
     write_file_atomically(checkpoint_path(options_.out_dir), bytes);
     last_checkpoint_ = Clock::now();
   }
@@ -691,9 +704,20 @@ CompressionResult resume_compression(const RunOptions& options) {
   if (!has_checkpoint(options.out_dir))
     throw InvalidArgument("out_dir", "no checkpoint in '" + options.out_dir + "'");
   const std::string bytes = read_file(checkpoint_path(options.out_dir));
-  if (bytes.size() < sizeof kCheckpointMagic || std::memcmp(bytes.data(), kCheckpointMagic, sizeof kCheckpointMagic) != 0)
+  const bool v4 = bytes.size() >= sizeof kCheckpointMagic + sizeof(std::uint64_t) &&
+                  std::memcmp(bytes.data(), kCheckpointMagic, sizeof kCheckpointMagic) == 0;
+  const bool v3 = bytes.size() >= sizeof kCheckpointMagicV3 &&
+                  std::memcmp(bytes.data(), kCheckpointMagicV3, sizeof kCheckpointMagicV3) == 0;
+  if (!v4 && !v3)
     throw InvalidArgument("out_dir", "'" + checkpoint_path(options.out_dir) + "' is not a compression checkpoint");
-  const std::string body = bytes.substr(sizeof kCheckpointMagic);
+  std::string body = bytes.substr(sizeof kCheckpointMagic);
+  if (v4) {
+    std::uint64_t stored = 0;
+    std::memcpy(&stored, body.data() + body.size() - sizeof stored, sizeof stored);
+    body.resize(body.size() - sizeof stored);
+    if (fnv1a(body.data(), body.size()) != stored)
+      throw InvalidArgument("out_dir", "'" + checkpoint_path(options.out_dir) + "' is corrupt (checksum mismatch)");
+  }
   ByteReader reader(body);
   gel::v1::Curve curve;
   if (!curve.ParseFromString(reader.block())) throw InvalidArgument("out_dir", "checkpoint curve is corrupt");

@@ -361,6 +361,37 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
 TEST(Compression, ResumeIsBitIdentical) { expect_resume_bit_identical(tiny_scene()); }
 
 // The adaptive wall keeps controller state (speed factor, ledger baselines) in the checkpoint.
+TEST(Compression, ACheckpointWithAFlippedBitIsRefusedNotResumed) {
+  // One flipped bit in the stored particle state used to parse fine and resume a corrupted run.
+  const std::string dir = temp_dir("flipped");
+  std::atomic<bool> stop{false};
+  RunOptions options;
+  options.out_dir = dir;
+  options.stop = &stop;
+  options.progress_interval_seconds = 0;
+  options.on_progress = [&](const gel::v1::Progress& p) {
+    if (p.k() >= 2) stop = true;
+  };
+  ASSERT_TRUE(run_compression(tiny_scene(), options).stopped);
+  const std::string path = dir + "/checkpoint.bin";
+  std::string bytes = read_file(path);
+  ASSERT_GT(bytes.size(), 1000u);
+  const std::string good = bytes;
+  bytes[bytes.size() - 200] ^= 0x10;  // inside the last block: the system's doubles
+  write_file_atomically(path, bytes);
+  stop = false;
+  try {
+    resume_compression(options);
+    ADD_FAILURE() << "a corrupted checkpoint was resumed";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("checksum mismatch"), std::string::npos) << e.what();
+  }
+  write_file_atomically(path, good);
+  options.on_progress = nullptr;
+  EXPECT_TRUE(resume_compression(options).finished);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Compression, AdaptiveWallResumeIsBitIdentical) {
   gel::v1::Scene scene = tiny_scene();
   scene.mutable_compression()->set_adaptive_wall_max_factor(4);
