@@ -125,6 +125,8 @@ class CompressionEngine final : public Engine {
     } else {
       scene = request.scene();
     }
+    // The daemon's default is written into the scene, so the stored job says how it ran.
+    if (scene.integration().threads() == 0) scene.mutable_integration()->set_threads(limits.threads_per_member);
     if (scene.has_bending()) {
       throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
                      "scene.bending: only compression scenes run as jobs (set scene.compression or a preset)");

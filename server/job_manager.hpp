@@ -39,6 +39,7 @@ struct Limits {
   std::int64_t max_particles = 2'000'000;  // per ensemble member
   int max_seeds = 1000;                    // ensemble members per job
   int max_watchers = 256;                  // concurrent WatchJob streams, all jobs
+  int threads_per_member = 1;              // engine threads of a member whose scene leaves integration.threads 0
 };
 
 // The scene side of jobs: validation, resolution and the curve's JSON shape. The compression

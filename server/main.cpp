@@ -142,6 +142,10 @@ int main(int argc, char** argv) {
   app.add_option("--max-seeds", limits.max_seeds, "Ensemble members per job at most")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--threads-per-member", limits.threads_per_member,
+                 "Engine threads of each member whose scene does not set integration.threads (results are bit-identical for any number)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1024));
   app.add_option("--max-watchers", limits.max_watchers, "Concurrent WatchJob streams at most")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

@@ -63,7 +63,7 @@ struct CompressArgs {
   // Ensemble: members by seed, `jobs` at a time, each in out/seed_<seed>.
   std::string seeds;
   int jobs = 1;
-  int threads = 1;
+  int threads = 0;  // 0: the scene's integration.threads, else 1
 };
 
 gel::v1::Scene build_scene(const CompressArgs& args) {
@@ -459,7 +459,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
           },
           "UINT"));
   sub.add_option("--seeds", args->seeds, "an ensemble: seeds 1-10 or 1,4,7-9, each member in OUT/seed_<seed>");
-  sub.add_option("--threads", args->threads, "engine threads per run (results are bit-identical for any number)")
+  sub.add_option("--threads", args->threads,
+                 "engine threads per run (results are bit-identical for any number; default: the scene's integration.threads, else 1)")
       ->check(CLI::Range(1, 1024));
   sub.add_option("--jobs", args->jobs, "ensemble members run at a time (0: one per core; default 1)")->check(CLI::NonNegativeNumber);
   sub.add_option("--fidelity", args->fidelity, "fast, default, paper (MODEL.md reference values) or quasistatic (FIRE relaxation)");

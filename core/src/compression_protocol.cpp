@@ -304,7 +304,9 @@ class CompressionRun {
         session_start_(Clock::now()),
         last_progress_(session_start_),
         last_checkpoint_(session_start_) {
-    system_.set_threads(options.threads);  // any number gives the same bits (System::set_threads)
+    // Any number gives the same bits (System::set_threads), so the option may override the scene.
+    const int scene_threads = curve_.scene().integration().threads();
+    system_.set_threads(options.threads > 0 ? options.threads : scene_threads > 0 ? scene_threads : 1);
   }
 
   // A fresh run: records row 0 and writes its outputs.

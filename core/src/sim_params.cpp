@@ -50,6 +50,8 @@ SimParams resolve_sim_params(const gel::v1::Scene& scene) {
     require_non_negative("integration.eta_factor", integration.eta_factor());
     params.eta_factor = integration.eta_factor();
   }
+  if (integration.threads() < 0 || integration.threads() > 1024)
+    throw InvalidArgument("integration.threads", "must be 0 (the runner's choice) to 1024, got " + std::to_string(integration.threads()));
   if (integration.skin() != 0.0) {
     require_positive("integration.skin", integration.skin());
     params.skin = integration.skin();

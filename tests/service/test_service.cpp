@@ -1255,6 +1255,40 @@ TEST_F(Service, ScenesThatCouldNeverFinishAreRefusedNamingTheField) {
   EXPECT_TRUE(ok.ok()) << ok.error_message();
 }
 
+TEST_F(Service, EngineThreadsAreAJobFieldWithTheDaemonsDefaultAndGiveTheSameRows) {
+  // --threads-per-member 2: a scene without integration.threads gets 2, written into the stored
+  // scene; a scene with its own value keeps it. Threads never change the bits, so both members'
+  // rows equal a one-thread run of the same seed.
+  geld::Limits limits;
+  limits.threads_per_member = 2;
+  start(limits);
+  const std::string defaulted = submit_ok(tiny_scene_json());
+  nlohmann::json one_thread = nlohmann::json::parse(tiny_scene_json());
+  one_thread["integration"] = {{"threads", 1}};
+  const std::string explicit_one = submit_ok(one_thread.dump());
+  grpc::Status status;
+  watch(defaulted, &status);
+  watch(explicit_one, &status);
+  const auto a = curve(defaulted), b = curve(explicit_one);
+  EXPECT_EQ(get(defaulted).scene().integration().threads(), 2);
+  EXPECT_EQ(get(explicit_one).scene().integration().threads(), 1);
+  ASSERT_EQ(a.state(), gel::v1::JOB_STATE_SUCCEEDED);
+  ASSERT_EQ(b.state(), gel::v1::JOB_STATE_SUCCEEDED);
+  ASSERT_EQ(a.members(0).curve().rows_size(), b.members(0).curve().rows_size());
+  for (int k = 0; k < a.members(0).curve().rows_size(); ++k) {
+    gel::v1::CurveRow x = a.members(0).curve().rows(k), y = b.members(0).curve().rows(k);
+    x.clear_wall_seconds();
+    y.clear_wall_seconds();
+    EXPECT_EQ(x.SerializeAsString(), y.SerializeAsString()) << "row " << k;
+  }
+  nlohmann::json too_many = nlohmann::json::parse(tiny_scene_json());
+  too_many["integration"] = {{"threads", 5000}};
+  std::string id;
+  status = submit(too_many.dump(), &id);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("integration.threads"), std::string::npos) << status.error_message();
+}
+
 TEST_F(Service, TooManyOrTooLongLabelsAreInvalidArgumentNamingTheField) {
   start();
   std::map<std::string, std::string> many;

@@ -36,7 +36,7 @@ struct RunOptions {
   const std::atomic<bool>* stop = nullptr;  // set to stop: checkpoint and return
   double progress_interval_seconds = 0.5;
   bool write_snapshots = true;
-  int threads = 1;  // of the engine; results are bit-identical for any number
+  int threads = 0;  // of the engine (bit-identical for any number); 0: scene integration.threads, else 1
 };
 
 struct CompressionResult {
