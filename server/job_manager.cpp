@@ -646,8 +646,8 @@ void JobManager::worker_loop() {
 // (a full disk stalls every job alike) unless geld shuts down or the job is cancelled.
 void JobManager::wait_for_space(const std::shared_ptr<Live>& live, int member, const std::string& error) {
   std::string id;
-  const std::string message = "waiting for disk space (" + error + "); retrying every " +
-                              std::to_string(options_.disk_full_retry_seconds).substr(0, 4) + " s";
+  const std::string message =
+      fmt::format("waiting for disk space ({}); retrying every {:g} s", error, options_.disk_full_retry_seconds);
   {
     std::lock_guard lock(live->mutex);
     id = live->job.id();

@@ -742,6 +742,11 @@ void System::stability_failure(const std::string& what) const {
                        "; dt = " + number(params_.dt) + " (reduce integration.dt_fraction or the load)");
 }
 
+double System::bond_gap(const Bond& bond) const {
+  const double dx = x_[bond.j] + bond.shift_x - x_[bond.i], dy = y_[bond.j] + bond.shift_y - y_[bond.i];
+  return std::sqrt(dx * dx + dy * dy) - kDiameter;
+}
+
 void System::check_stability() {
   const std::size_t n = size();
   double sum = 0;
@@ -767,8 +772,7 @@ void System::check_stability() {
   if (min_delta_ < -params_.max_overlap) {
     for (std::size_t b = 0; b < bonds_.size(); ++b) {
       const Bond& bond = bonds_[b];
-      const double dx = x_[bond.j] + bond.shift_x - x_[bond.i], dy = y_[bond.j] + bond.shift_y - y_[bond.i];
-      const double gap = std::sqrt(dx * dx + dy * dy) - kDiameter;
+      const double gap = bond_gap(bond);
       if (gap < -params_.max_overlap)
         stability_failure("bond " + std::to_string(b) + " (particles " + std::to_string(bond.i) + "-" +
                           std::to_string(bond.j) + ") overlaps by " + number(-gap) + " a, beyond max_overlap = " +
@@ -793,8 +797,7 @@ void System::check_contact_stiffness() {
   if (std::sqrt(bound_factor * 7.0 * stiffness(min_delta_) / kMass) * params_.dt <= 2.0) return;
   std::vector<double> summed(size(), 0.0);
   for (const Bond& bond : bonds_) {
-    const double dx = x_[bond.j] + bond.shift_x - x_[bond.i], dy = y_[bond.j] + bond.shift_y - y_[bond.i];
-    const double k = stiffness(std::sqrt(dx * dx + dy * dy) - kDiameter);
+    const double k = stiffness(bond_gap(bond));
     summed[bond.i] += k;
     summed[bond.j] += k;
   }

@@ -226,6 +226,7 @@ class System {
   void apply_external_forces();
   void collect_wall_forces();
   void check_stability();
+  double bond_gap(const Bond& bond) const;  // surface gap delta of a bonded pair, from positions only
   void check_contact_stiffness();
   void after_drift();
   bool handle_threshold(std::size_t b, double fn, double ft_sq, double moment, double nx, double ny);
