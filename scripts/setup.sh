@@ -8,9 +8,10 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libeigen3-dev libspdlog-dev libsqlite3-dev libgtest-dev libgmock-dev libbenchmark-dev
-  nlohmann-json3-dev libcli11-dev
+  nlohmann-json3-dev libcli11-dev libfmt-dev
   libfftw3-dev libcairo2-dev gnuplot-nox
   python3 python3-grpcio python3-protobuf
+  python3-numpy python3-ase python3-gsd python3-vtk9 python3-pandas
   systemd
   slurmctld slurmd slurm-client munge
 )

@@ -64,7 +64,21 @@ struct CompressArgs {
   std::string seeds;
   int jobs = 1;
   int threads = 0;  // 0: the scene's integration.threads, else 1
+  // GSD trajectory: a frame every N engine steps, to OUT/trajectory.gsd unless named.
+  std::int64_t trajectory_every = 0;
+  std::string trajectory;
 };
+
+// The trajectory file of a run whose outputs go to `dir`; throws when there is nowhere to put it.
+std::string trajectory_path(const CompressArgs& args, const std::string& dir) {
+  if (args.trajectory_every <= 0) {
+    if (!args.trajectory.empty()) throw gel::InvalidArgument("trajectory", "--trajectory needs --trajectory-every N (steps between frames)");
+    return {};
+  }
+  if (!args.trajectory.empty()) return args.trajectory;
+  if (dir.empty()) throw gel::InvalidArgument("trajectory", "--trajectory-every needs --out or --trajectory FILE.gsd");
+  return (std::filesystem::path(dir) / "trajectory.gsd").string();
+}
 
 gel::v1::Scene build_scene(const CompressArgs& args) {
   gel::v1::Scene scene;
@@ -258,6 +272,8 @@ int run_ensemble(const CompressArgs& args) {
   const std::string out = resuming ? (args.resume->empty() ? args.out : *args.resume) : args.out;
   if (out.empty()) throw gel::InvalidArgument("--out", "an ensemble needs a directory (--out DIR): each member runs in DIR/seed_<seed>");
   if (args.jobs < 0) throw gel::InvalidArgument("--jobs", "must be 0 (one per core) or positive");
+  if (!args.trajectory.empty())
+    throw gel::InvalidArgument("--trajectory", "members of an ensemble write DIR/seed_<seed>/trajectory.gsd each: leave --trajectory out");
   const std::filesystem::path manifest = std::filesystem::path(out) / "ensemble.json";
   std::vector<std::uint64_t> seeds;
   gel::v1::Scene scene;
@@ -297,6 +313,8 @@ int run_ensemble(const CompressArgs& args) {
       options.progress_interval_seconds = std::max(args.progress_interval, 1.0);
       options.write_snapshots = !args.no_snapshots;
       options.threads = args.threads;
+      options.trajectory_every = args.trajectory_every;
+      options.trajectory_path = trajectory_path(args, options.out_dir);
       options.on_progress = [&, seed, prefix](const gel::v1::Progress& p) {
         nlohmann::json line = progress_json(p);
         line["seed"] = seed;
@@ -390,6 +408,8 @@ int run_compress(const CompressArgs& args) {
   options.progress_interval_seconds = args.progress_interval;
   options.write_snapshots = !args.no_snapshots;
   options.threads = args.threads;
+  options.trajectory_every = args.trajectory_every;
+  options.trajectory_path = trajectory_path(args, options.out_dir);
   options.on_progress = [&](const gel::v1::Progress& p) {
     progress_file.write(progress_json(p));
     if (terminal)
@@ -470,6 +490,10 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--progress-interval", args->progress_interval, "seconds between progress messages")->check(CLI::NonNegativeNumber);
   sub.add_flag("--json", args->json, "print the curve as one JSON object (curve.json's format)");
   sub.add_flag("--no-snapshots", args->no_snapshots, "write no configuration snapshots");
+  sub.add_option("--trajectory-every", args->trajectory_every,
+                 "write a GSD trajectory frame every N engine steps (OVITO, gsd.hoomd; README \"Data out\")")
+      ->check(CLI::PositiveNumber);
+  sub.add_option("--trajectory", args->trajectory, "the trajectory file (default OUT/trajectory.gsd; not with --seeds)");
   sub.add_option("--phi-max", args->phi_max, "last target packing fraction");
   sub.add_option("--steps", args->steps, "k', the number of targets (at least 1; leave it out for the preset's)")
       ->check(CLI::Validator(

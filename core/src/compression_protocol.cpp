@@ -23,6 +23,7 @@
 #include "gel/compression.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
+#include "gel/export.hpp"
 #include "gel/generator.hpp"
 #include "gel/system.hpp"
 #include "gel/units.hpp"
@@ -309,9 +310,26 @@ class CompressionRun {
     system_.set_threads(options.threads > 0 ? options.threads : scene_threads > 0 ? scene_threads : 1);
   }
 
+  // Opens the trajectory: a fresh run starts the file, a resumed one keeps its frames up to the
+  // checkpoint's step and writes the next frame where the uninterrupted run would have.
+  void open_trajectory(bool resumed) {
+    if (options_.trajectory_every <= 0 || options_.trajectory_path.empty()) return;
+    const std::int64_t step = system_.step_count();
+    if (!resumed) {
+      trajectory_ = exporting::open_writer(exporting::Format::kGsd, options_.trajectory_path);
+      next_frame_step_ = 0;
+      return;
+    }
+    std::int64_t last_frame_step = -1;
+    trajectory_ = exporting::reopen_gsd_trajectory(options_.trajectory_path, step, &last_frame_step);
+    next_frame_step_ = last_frame_step < 0 ? 0 : (last_frame_step / options_.trajectory_every + 1) * options_.trajectory_every;
+  }
+
   // A fresh run: records row 0 and writes its outputs.
   void start() {
     state_.next_exam_step = 0;
+    open_trajectory(false);
+    write_frame_if_due();
     record_row(true, state_.phi0);
   }
 
@@ -610,7 +628,18 @@ class CompressionRun {
     }
   }
 
+  void write_frame_if_due() {
+    if (!trajectory_ || system_.step_count() < next_frame_step_) return;
+    exporting::Frame frame;
+    frame.configuration = system_.configuration();
+    frame.step = system_.step_count();
+    frame.p = system_.wall_stress().p;
+    trajectory_->append(frame);
+    next_frame_step_ = (frame.step / options_.trajectory_every + 1) * options_.trajectory_every;
+  }
+
   void between_chunks() {
+    write_frame_if_due();
     const bool want_clock = static_cast<bool>(options_.on_progress) || !options_.out_dir.empty();
     if (!want_clock) return;
     const Clock::time_point now = Clock::now();
@@ -631,6 +660,8 @@ class CompressionRun {
   RunOptions options_;
   std::vector<double> targets_;
   Clock::time_point session_start_, last_progress_, last_checkpoint_;
+  std::unique_ptr<exporting::FrameWriter> trajectory_;
+  std::int64_t next_frame_step_ = 0;
 };
 
 }  // namespace
@@ -727,6 +758,7 @@ CompressionResult resume_compression(const RunOptions& options) {
   System system = System::load_state(reader.block());
   if (!reader.done()) throw InvalidArgument("out_dir", "checkpoint has trailing bytes");
   CompressionRun run(std::move(system), std::move(curve), state, options);
+  run.open_trajectory(true);
   return run.run();
 }
 

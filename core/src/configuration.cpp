@@ -169,20 +169,26 @@ namespace {
 }
 }  // namespace
 
+void write_at(int fd, const void* data, std::size_t size, std::uint64_t offset, const std::string& what) {
+  const char* bytes = static_cast<const char*>(data);
+  std::size_t written = 0;
+  while (written < size) {
+    const ssize_t n = ::pwrite(fd, bytes + written, size - written, static_cast<off_t>(offset + written));
+    if (n <= 0) write_failed("write to '" + what + "' failed", n < 0 ? errno : ENOSPC);  // 0 bytes: no room left
+    written += static_cast<std::size_t>(n);
+  }
+}
+
 void write_file_atomically(const std::string& path, const std::string& contents) {
   const std::string temporary = path + ".tmp";
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   if (fd < 0) write_failed("cannot write '" + temporary + "'", errno);
-  std::size_t written = 0;
-  while (written < contents.size()) {
-    const ssize_t n = ::write(fd, contents.data() + written, contents.size() - written);
-    if (n <= 0) {
-      const int error = n < 0 ? errno : ENOSPC;  // a write of 0 bytes: no room left
-      ::close(fd);
-      ::unlink(temporary.c_str());
-      write_failed("write to '" + temporary + "' failed", error);
-    }
-    written += static_cast<std::size_t>(n);
+  try {
+    write_at(fd, contents.data(), contents.size(), 0, temporary);
+  } catch (...) {
+    ::close(fd);
+    ::unlink(temporary.c_str());
+    throw;
   }
   if (::fsync(fd) != 0) {
     const int error = errno;

@@ -317,6 +317,9 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
   const std::string reference_dir = temp_dir("reference"), resumed_dir = temp_dir("resumed");
   RunOptions reference_options;
   reference_options.out_dir = reference_dir;
+  // Trajectory frames every 5000 steps: the resumed file must hold the same frames.
+  reference_options.trajectory_every = 5000;
+  reference_options.trajectory_path = reference_dir + "/trajectory.gsd";
   const CompressionResult reference = run_compression(scene, reference_options);
   ASSERT_TRUE(reference.finished);
   const std::int64_t total_steps = reference.curve.rows(reference.curve.rows_size() - 1).steps();
@@ -330,6 +333,8 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
   options.on_progress = [&](const gel::v1::Progress& p) {
     if (p.steps() >= stop_at) stop = true;
   };
+  options.trajectory_every = reference_options.trajectory_every;
+  options.trajectory_path = resumed_dir + "/trajectory.gsd";
   CompressionResult part = run_compression(scene, options);
   ASSERT_TRUE(part.stopped);
   ASSERT_FALSE(part.finished);
@@ -348,6 +353,13 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
   const std::string last = reference.curve.rows(reference.curve.rows_size() - 1).snapshot();
   ASSERT_FALSE(last.empty());
   EXPECT_EQ(read_file(reference_dir + "/" + last), read_file(resumed_dir + "/" + last));
+  // Frames past each checkpoint were dropped and written again: the same bytes as uninterrupted.
+  const std::string trajectory = read_file(reference_dir + "/trajectory.gsd");
+  ASSERT_GE(total_steps, 3 * reference_options.trajectory_every) << "too short to stop between frames";
+  // Header, name list and index take under 34 kB; every frame adds at least the positions.
+  const auto frames = static_cast<std::size_t>(total_steps / reference_options.trajectory_every + 1);
+  EXPECT_GT(trajectory.size(), 34000 + frames * reference.curve.particles() * 3 * sizeof(float));
+  EXPECT_TRUE(trajectory == read_file(resumed_dir + "/trajectory.gsd")) << "the resumed trajectory differs";
   // The files on disk hold the same curve.
   const gel::v1::Curve on_disk = read_curve(resumed_dir);
   ASSERT_EQ(on_disk.rows_size(), reference.curve.rows_size());

@@ -37,6 +37,13 @@ struct RunOptions {
   double progress_interval_seconds = 0.5;
   bool write_snapshots = true;
   int threads = 0;  // of the engine (bit-identical for any number); 0: scene integration.threads, else 1
+  // A GSD trajectory (gel/export.hpp): a frame at the start and then at the first chunk boundary
+  // at or after every multiple of trajectory_every engine steps (0: none). Relaxation
+  // iterations of the quasi-static method take no steps, so they add no frames. Writing frames
+  // reads the state and never changes it: the run is bit-identical with or without them. A
+  // resumed run drops the file's frames past its checkpoint and goes on from there.
+  std::string trajectory_path;
+  std::int64_t trajectory_every = 0;
 };
 
 struct CompressionResult {

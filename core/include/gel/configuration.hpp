@@ -67,6 +67,10 @@ void write_configuration(const Configuration& config, const std::string& path);
 // Writes `contents` to `path` atomically: a temporary file in the same folder, fsync, rename.
 void write_file_atomically(const std::string& path, const std::string& contents);
 std::string read_file(const std::string& path);
+// Writes all `size` bytes at `offset` of the open file `fd`, retrying short writes. Throws
+// NoSpaceError when the file system is full, std::runtime_error otherwise; `what` names the
+// file in the message.
+void write_at(int fd, const void* data, std::size_t size, std::uint64_t offset, const std::string& what);
 
 std::string program_version();
 
