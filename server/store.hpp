@@ -122,6 +122,7 @@ class Store {
 
  private:
   void exec(const char* sql);
+  void check_integrity(const std::string& path);
   void migrate();
   gel::v1::Job read_job_locked(const std::string& id, bool& found);
 

@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# geld refuses to start on a data dir it cannot use, says why, and changes nothing there:
+#  1. a read-only file system (a tmpfs remounted read-only, in a private mount namespace the
+#     test makes itself; needs root, else skipped with exit 77);
+#  2. a store with damaged pages (a real store made by geld, then a b-tree page overwritten):
+#     refused at start with the damage named and what to do, the file left byte for byte.
+# Then the same store, repaired by moving it away, starts a fresh daemon that serves.
+#
+#   test_store_faults.sh BUILD_DIR
+set -euo pipefail
+if [ -z "${GEL_IN_MOUNT_NS:-}" ]; then
+  if ! unshare --mount --propagation private true 2>/dev/null; then
+    echo "SKIP: test_store_faults: cannot make a private mount namespace here (not root?)"
+    exit 77
+  fi
+  exec env GEL_IN_MOUNT_NS=1 unshare --mount --propagation private bash "$0" "$@"
+fi
+build=$(cd "$1" && pwd)
+geld=$build/server/geld
+gelctl=$build/client/gelctl
+py=/usr/bin/python3
+work=$(mktemp -d /tmp/geld-storefaults.XXXXXX)
+geld_pid=
+cleanup() {
+  if [ -n "$geld_pid" ]; then
+    kill -KILL "$geld_pid" 2>/dev/null || true
+    wait "$geld_pid" 2>/dev/null || true
+  fi
+  umount "$work/ro" 2>/dev/null || true
+  rm -rf "$work" || true
+}
+trap cleanup EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+port=$($py -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1]); s.close()')
+
+# Starts geld on $1 and expects it to exit non-zero within 20 s; its log goes to $2.
+expect_refusal() {
+  set +e
+  timeout 20 "$geld" --listen "127.0.0.1:$port" --data-dir "$1" --workers 1 > "$2" 2>&1
+  local code=$?
+  set -e
+  [ "$code" -ne 0 ] && [ "$code" -ne 124 ] || fail "geld on $1 exited $code instead of refusing: $(tail -3 "$2")"
+}
+
+# 1. Read-only: a store made while writable, then the file system remounted read-only.
+mkdir -p "$work/ro"
+mount -t tmpfs -o size=4m tmpfs "$work/ro" || { echo "SKIP: test_store_faults: cannot mount a tmpfs"; exit 77; }
+"$geld" --listen "127.0.0.1:$port" --data-dir "$work/ro" --workers 1 > "$work/first.log" 2>&1 &
+geld_pid=$!
+for _ in $(seq 300); do "$gelctl" --server "127.0.0.1:$port" list > /dev/null 2>&1 && break; sleep 0.05; done
+kill -TERM "$geld_pid"; wait "$geld_pid" || true; geld_pid=
+mount -o remount,ro "$work/ro"
+expect_refusal "$work/ro" "$work/ro.log"
+grep -q "Read-only file system" "$work/ro.log" || fail "the read-only refusal does not say so: $(tail -2 "$work/ro.log")"
+
+# 2. Damaged pages: the second page's b-tree header overwritten.
+mkdir -p "$work/damaged"
+"$geld" --listen "127.0.0.1:$port" --data-dir "$work/damaged" --workers 1 > "$work/second.log" 2>&1 &
+geld_pid=$!
+for _ in $(seq 300); do "$gelctl" --server "127.0.0.1:$port" list > /dev/null 2>&1 && break; sleep 0.05; done
+kill -TERM "$geld_pid"; wait "$geld_pid" || true; geld_pid=
+store="$work/damaged/geld.sqlite"
+$py - "$store" <<'PY'
+import sys
+with open(sys.argv[1], "r+b") as f:
+    f.seek(4096)  # page 2 (4 KiB pages): its b-tree page header
+    f.write(b"\x0d" + b"\xff" * 63)
+PY
+before=$(sha256sum "$store" | cut -d' ' -f1)
+expect_refusal "$work/damaged" "$work/damaged.log"
+grep -q "is damaged" "$work/damaged.log" || fail "the damage is not named: $(tail -2 "$work/damaged.log")"
+grep -q "recover" "$work/damaged.log" || fail "the refusal does not say what to do: $(tail -2 "$work/damaged.log")"
+[ "$(sha256sum "$store" | cut -d' ' -f1)" = "$before" ] || fail "the refused start changed the damaged store"
+
+# The damaged file moved away: a fresh store starts and serves.
+mv "$store" "$store.damaged"
+rm -f "$store-wal" "$store-shm"
+"$geld" --listen "127.0.0.1:$port" --data-dir "$work/damaged" --workers 1 > "$work/third.log" 2>&1 &
+geld_pid=$!
+for _ in $(seq 300); do "$gelctl" --server "127.0.0.1:$port" list > /dev/null 2>&1 && break; sleep 0.05; done
+"$gelctl" --server "127.0.0.1:$port" list > /dev/null || fail "geld did not start on a fresh store"
+echo "store faults: read-only and damaged stores refused at start, nothing changed"
