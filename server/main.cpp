@@ -19,6 +19,7 @@
 #include <spdlog/spdlog.h>
 
 #include "executor.hpp"
+#include "gel_version.hpp"
 #include "service.hpp"
 
 namespace fs = std::filesystem;
@@ -110,7 +111,7 @@ std::string read_token(const std::string& path) {
 
 int main(int argc, char** argv) {
   CLI::App app{"geld: the gelsim job daemon (compressions of colloidal gels as jobs over gRPC)"};
-  app.set_version_flag("--version", std::string(GEL_VERSION));
+  app.set_version_flag("--version", gel::program_version());
   app.config_formatter(std::make_shared<ConfigFile>());
   app.set_config("--config", "", "Configuration file: 'key = value' lines or a JSON object; keys are flag names");
 
@@ -227,7 +228,7 @@ int main(int argc, char** argv) {
   try {
     std::shared_ptr<geld::Executor> executor = geld::make_executor(executor_config);
     daemon = std::make_unique<geld::Daemon>(options, geld::make_compression_engine(), executor);
-    spdlog::info("geld {}: data dir {}, executor {}", GEL_VERSION, options.manager.data_dir, executor->name());
+    spdlog::info("geld {}: data dir {}, executor {}", gel::program_version(), options.manager.data_dir, executor->name());
     daemon->start();
   } catch (const std::invalid_argument& e) {
     spdlog::critical("{}", e.what());

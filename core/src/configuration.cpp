@@ -17,14 +17,6 @@
 
 namespace gel {
 
-std::string program_version() {
-#ifdef GEL_VERSION
-  return GEL_VERSION;
-#else
-  return "dev";
-#endif
-}
-
 double Configuration::packing_fraction() const {
   return kPi * kRadius * kRadius * static_cast<double>(size()) / (lx * height());
 }

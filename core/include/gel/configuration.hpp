@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "gel/v1/scene.pb.h"
+#include "gel_version.hpp"  // gel::program_version()
 
 namespace gel {
 
@@ -72,6 +73,5 @@ std::string read_file(const std::string& path);
 // file in the message.
 void write_at(int fd, const void* data, std::size_t size, std::uint64_t offset, const std::string& what);
 
-std::string program_version();
 
 }  // namespace gel
