@@ -103,11 +103,9 @@ def run_one(gelsim, work, gel, fidelity, seed, committed=None):
     curve_path = os.path.join(out_dir, "curve.json")
     scene = scene_for(gel, fidelity, seed)
     scene_path = os.path.join(out_dir, "scene.json")
-    if os.path.exists(curve_path):
-        with open(curve_path) as f:
-            curve = json.load(f)
-        if finished(curve):
-            return curve
+    curve = cached(work, gel, fidelity, seed)
+    if curve:
+        return curve
     os.makedirs(out_dir, exist_ok=True)
     resume = os.path.exists(os.path.join(out_dir, "checkpoint.bin")) and os.path.exists(scene_path) \
         and json.load(open(scene_path)) == scene
@@ -115,12 +113,21 @@ def run_one(gelsim, work, gel, fidelity, seed, committed=None):
         json.dump(scene, f, indent=1)
     command = [gelsim, "compress", "--no-snapshots"]
     command += ["--resume", out_dir] if resume else ["--scene", scene_path, "--out", out_dir]
-    proc = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # CPU seconds of this gelsim (its own rusage, not the pool's), summed over resumptions: on a
+    # shared machine the wall time of a run says more about the neighbours than about the run.
+    stderr_path = os.path.join(out_dir, "gelsim.stderr")
+    with open(stderr_path, "w") as stderr:
+        proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr)
+        _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    cpu_path = os.path.join(out_dir, "cpu_seconds.json")
+    spent = json.load(open(cpu_path))["cpu_seconds"] if os.path.exists(cpu_path) else 0.0
+    with open(cpu_path, "w") as f:
+        json.dump({"cpu_seconds": spent + usage.ru_utime + usage.ru_stime}, f)
     if proc.returncode != 0:
-        raise RuntimeError(f"{gel} {fidelity} seed {seed}: gelsim exited {proc.returncode}: "
-                           f"{proc.stderr.strip().splitlines()[-1:] if proc.stderr else ''}")
-    with open(curve_path) as f:
-        return json.load(f)
+        last = open(stderr_path).read().strip().splitlines()[-1:]
+        raise RuntimeError(f"{gel} {fidelity} seed {seed}: gelsim exited {proc.returncode}: {last}")
+    return cached(work, gel, fidelity, seed)
 
 
 def cached(work, gel, fidelity, seed):
@@ -129,6 +136,9 @@ def cached(work, gel, fidelity, seed):
         return None
     with open(path) as f:
         curve = json.load(f)
+    cpu_path = os.path.join(work, gel, fidelity, f"seed_{seed}", "cpu_seconds.json")
+    if os.path.exists(cpu_path):
+        curve["cpu_seconds"] = json.load(open(cpu_path))["cpu_seconds"]
     return curve if finished(curve) else None
 
 
@@ -185,7 +195,8 @@ def committed_runs():
     with open(path) as f:
         stored = json.load(f)
     return {(gel, variant, run["seed"]): {"seed": run["seed"], "particles": run["particles"],
-                                          "rows": [row_from_summary(row) for row in run["rows"]]}
+                                          "rows": [row_from_summary(row) for row in run["rows"]],
+                                          **({"cpu_seconds": run["cpu_seconds"]} if "cpu_seconds" in run else {})}
             for gel, variants in stored.items() for variant, runs in variants.items() for run in runs}
 
 
@@ -262,8 +273,12 @@ def write_report(args, results, rng):
             if runs:
                 times = [r["rows"][-1]["wall_seconds"] for r in runs]
                 iters = [r["rows"][-1]["steps"] for r in runs]
+                cpu = [r["cpu_seconds"] for r in runs if "cpu_seconds" in r]
+                cpu_text = (f"CPU time per run {fmt(min(cpu))}–{fmt(max(cpu))} s ({len(cpu)} runs measured), "
+                            if cpu else "")
                 out.append(f"- `{fidelity}`: {len(runs)} seeds ({', '.join(str(r['seed']) for r in runs)}); "
                            f"wall time per run {fmt(min(times))}–{fmt(max(times))} s (mean {fmt(mean(times))} s), "
+                           + cpu_text +
                            f"steps + FIRE iterations {fmt(mean(iters), 4)} per run; rows equilibrated "
                            f"{sum(1 for r in runs for row in r['rows'][1:] if row['equilibrated'])}/"
                            f"{sum(len(r['rows']) - 1 for r in runs)}.")
@@ -338,6 +353,7 @@ def write_report(args, results, rng):
     with open(os.path.join(ROOT, "docs", "quasistatic.md"), "w") as f:
         f.write("\n".join(out) + "\n")
     compact = {gel: {fidelity: [{"seed": r["seed"], "particles": r["particles"],
+                                 **({"cpu_seconds": r["cpu_seconds"]} if "cpu_seconds" in r else {}),
                                  "rows": [row_summary(row) for row in r["rows"]]}
                                 for r in runs] for fidelity, runs in ensembles.items()}
                for gel, ensembles in results.items()}
