@@ -245,7 +245,42 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   return resolved;
 }
 
+namespace {
+// Protocol Buffers' JSON parser flattens arrays nested in arrays into a repeated field
+// ({"effects": [["normal"]]} read as ["normal"]) and spends memory on them out of all proportion
+// (a 2 MB request of nested arrays took a daemon to 940 MB). A scene has no nested arrays and is
+// only a few objects deep, so both are refused before the parser sees the text. One linear pass,
+// no recursion, so no input can exhaust the stack.
+constexpr int kMaxSceneJsonDepth = 16;
+
+void require_plain_scene_json(const std::string& json) {
+  std::string open;  // the containers around the current character, innermost last
+  bool in_string = false, escaped = false;
+  for (std::size_t at = 0; at < json.size(); ++at) {
+    const char c = json[at];
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (c == '[' && !open.empty() && open.back() == '[')
+        throw InvalidArgument("scene", "an array inside an array at byte " + std::to_string(at) + ": no scene field is a nested list");
+      open.push_back(c);
+      if (static_cast<int>(open.size()) > kMaxSceneJsonDepth)
+        throw InvalidArgument("scene", "nested deeper than " + std::to_string(kMaxSceneJsonDepth) + " levels at byte " + std::to_string(at));
+    } else if ((c == ']' || c == '}') && !open.empty()) {
+      open.pop_back();
+    }
+  }
+}
+}  // namespace
+
 gel::v1::Scene scene_from_json(const std::string& json) {
+  require_plain_scene_json(json);
   gel::v1::Scene scene;
   google::protobuf::util::JsonParseOptions options;
   options.ignore_unknown_fields = false;

@@ -599,5 +599,19 @@ TEST(CompressionEquilibrium, ANetworkThatDoesNotSpanIsOnlyAtEquilibriumAtRest) {
   EXPECT_TRUE(equilibrium_reached(sample, c));
 }
 
+// Protocol Buffers' JSON parser read {"effects": [["normal"]]} as ["normal"] and took a daemon to
+// 940 MB on 2 MB of nested arrays: both are refused before parsing, strings are not mistaken.
+TEST(Compression, SceneJsonWithNestedArraysOrDeepNestingIsRefused) {
+  expect_invalid("scene", [] { scene_from_json(R"({"preset": "quick", "effects": [["normal"]]})"); });
+  expect_invalid("scene", [] { scene_from_json("{\"effects\": " + std::string(1 << 20, '[') + std::string(1 << 20, ']') + "}"); });
+  std::string deep = "{\"name\": \"x\"}";
+  for (int level = 0; level < 20; ++level) deep = "{\"compression\": " + deep + "}";
+  expect_invalid("scene", [&] { scene_from_json(deep); });
+  // Brackets and escaped quotes inside strings are text, not structure.
+  const gel::v1::Scene scene = scene_from_json(R"({"preset": "quick", "name": "a [[b]] \" [[", "effects": ["normal", "walls"]})");
+  EXPECT_EQ(scene.name(), "a [[b]] \" [[");
+  EXPECT_EQ(scene.effects_size(), 2);
+}
+
 }  // namespace
 }  // namespace gel
