@@ -12,7 +12,7 @@ PACKAGES=(
   libfftw3-dev libcairo2-dev gnuplot-nox
   python3 python3-grpcio python3-protobuf
   python3-numpy python3-ase python3-gsd python3-vtk9 python3-pandas
-  systemd
+  systemd openssl
   slurmctld slurmd slurm-client munge
 )
 

@@ -107,6 +107,20 @@ std::string read_token(const std::string& path) {
   return token;
 }
 
+// A PEM file's contents; a private key others can read is refused like a readable token.
+std::string read_pem(const std::string& option, const std::string& path, bool secret) {
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) throw std::invalid_argument(option + ": cannot read " + path);
+  if (secret && (info.st_mode & 077) != 0)
+    throw std::invalid_argument(option + ": " + path + " is readable by others; chmod 600 it");
+  std::ifstream in(path);
+  std::stringstream contents;
+  contents << in.rdbuf();
+  if (!in || contents.str().find("-----BEGIN ") == std::string::npos)
+    throw std::invalid_argument(option + ": " + path + " is not a PEM file");
+  return contents.str();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -124,6 +138,10 @@ int main(int argc, char** argv) {
   app.add_option("--listen", listen, "host:port to listen on; a non-loopback address needs --token-file")
       ->capture_default_str();
   app.add_option("--token-file", token_file, "File whose first line is the bearer token every call must carry");
+  std::string tls_cert, tls_key, tls_client_ca;
+  app.add_option("--tls-cert", tls_cert, "PEM certificate (chain) of this server: serve TLS instead of plain text");
+  app.add_option("--tls-key", tls_key, "PEM private key of --tls-cert (must not be readable by others)");
+  app.add_option("--tls-client-ca", tls_client_ca, "PEM CA certificate(s): require client certificates signed by them (mutual TLS)");
   app.add_option("--data-dir", data_dir, "Data directory (SQLite store and the jobs' files); default " +
                                              default_data_dir());
   app.add_option("--db", db_path, "SQLite file; default DATA_DIR/geld.sqlite");
@@ -206,6 +224,13 @@ int main(int argc, char** argv) {
 
   try {
     if (!token_file.empty()) options.token = read_token(token_file);
+    if (tls_cert.empty() != tls_key.empty()) throw std::invalid_argument("tls: --tls-cert and --tls-key go together");
+    if (!tls_client_ca.empty() && tls_cert.empty()) throw std::invalid_argument("tls-client-ca: needs --tls-cert and --tls-key");
+    if (!tls_cert.empty()) {
+      options.tls.certificate_chain = read_pem("tls-cert", tls_cert, false);
+      options.tls.private_key = read_pem("tls-key", tls_key, true);
+      if (!tls_client_ca.empty()) options.tls.client_ca = read_pem("tls-client-ca", tls_client_ca, false);
+    }
     fs::create_directories(options.manager.data_dir);
     executor_config.data_dir = fs::absolute(options.manager.data_dir).string();
     for (const auto& [key, option] : slurm_options) {

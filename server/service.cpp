@@ -185,6 +185,19 @@ std::string Daemon::address() const {
   return options_.listen.substr(0, colon) + ":" + std::to_string(port_);
 }
 
+namespace {
+// Plain text unless a certificate is given; with a client CA, a client must present a
+// certificate it signed (mutual TLS) before any call, the token check coming on top.
+std::shared_ptr<grpc::ServerCredentials> server_credentials(const TlsOptions& tls) {
+  if (!tls.enabled()) return grpc::InsecureServerCredentials();
+  grpc::SslServerCredentialsOptions ssl(tls.client_ca.empty() ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
+                                                              : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
+  ssl.pem_root_certs = tls.client_ca;
+  ssl.pem_key_cert_pairs.push_back({tls.private_key, tls.certificate_chain});
+  return grpc::SslServerCredentials(ssl);
+}
+}  // namespace
+
 void Daemon::start() {
   if (!is_loopback_address(options_.listen) && options_.token.empty()) {
     throw std::invalid_argument("listen: " + options_.listen +
@@ -199,7 +212,7 @@ void Daemon::start() {
   // gRPC sets SO_REUSEPORT by default, so a second geld on the same port would start silently
   // and take half of the connections; without it the second bind fails.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-  builder.AddListeningPort(options_.listen, grpc::InsecureServerCredentials(), &port_);
+  builder.AddListeningPort(options_.listen, server_credentials(options_.tls), &port_);
   builder.RegisterService(service_.get());
   if (!options_.token.empty()) {
     std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
@@ -215,7 +228,8 @@ void Daemon::start() {
     health->SetServingStatus(true);
     health->SetServingStatus("gel.v1.GelService", true);
   }
-  spdlog::info("geld listening on {}{}", address(), options_.token.empty() ? "" : " (bearer token required)");
+  spdlog::info("geld listening on {}{}{}", address(), options_.tls.enabled() ? (options_.tls.client_ca.empty() ? " (TLS)" : " (mutual TLS)") : "",
+               options_.token.empty() ? "" : " (bearer token required)");
 }
 
 void Daemon::shutdown() {

@@ -56,9 +56,18 @@ class GelServiceImpl final : public gel::v1::GelService::Service {
   std::shared_ptr<const TokenCheck> auth_;
 };
 
+// TLS for remote mode: PEM contents (not paths), read by main() from files.
+struct TlsOptions {
+  std::string certificate_chain;  // the server's certificate (and intermediates)
+  std::string private_key;
+  std::string client_ca;          // when set, clients must present a certificate signed by it
+  bool enabled() const { return !certificate_chain.empty(); }
+};
+
 struct DaemonOptions {
   std::string listen = "127.0.0.1:0";  // host:port; port 0 picks a free one
   std::string token;                   // required on every call when not empty
+  TlsOptions tls;                      // off: plain text (loopback, or behind a TLS proxy)
   ManagerOptions manager;
 };
 
