@@ -223,6 +223,9 @@ class ThreadExecutor final : public Executor {
         if (ctx.log) ctx.log("info", "member " + std::to_string(ctx.member) + " resumes from its checkpoint");
         result = gel::resume_compression(options);
         resumed = true;
+        if (result.resumed_from_previous_checkpoint && ctx.log)
+          ctx.log("warn", "member " + std::to_string(ctx.member) + ": last checkpoint unusable (" + result.checkpoint_problem +
+                              "); went on from the one before it");
       } catch (const gel::StabilityError&) {
         throw;
       } catch (const std::exception& e) {

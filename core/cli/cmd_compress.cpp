@@ -433,6 +433,8 @@ int run_compress(const CompressArgs& args) {
     if (args.resume) {
       if (options.out_dir.empty()) throw gel::InvalidArgument("--resume", "needs a run directory (--resume DIR)");
       result = gel::resume_compression(options);
+      if (result.resumed_from_previous_checkpoint)
+        std::cerr << "gelsim: the last checkpoint was unusable (" << result.checkpoint_problem << "); went on from the one before it\n";
     } else {
       std::optional<gel::Configuration> initial;
       if (!args.config_file.empty()) initial = gel::read_configuration(args.config_file);

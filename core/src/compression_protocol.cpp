@@ -38,6 +38,7 @@ using Clock = std::chrono::steady_clock;
 constexpr std::int64_t kChunkSteps = 128;
 
 constexpr char kCheckpointFile[] = "checkpoint.bin";
+constexpr char kPreviousCheckpointFile[] = "checkpoint.prev.bin";
 // Version 2 added the adaptive wall's controller state, version 3 the quasi-static method's
 // relaxation state (and the rupture count of the third equilibrium test).
 // Version 4 ends with a 64-bit FNV-1a hash of everything after the magic: a flipped bit in the
@@ -190,6 +191,12 @@ CompressionState decode_state(const std::string& bytes) {
 
 std::string checkpoint_path(const std::string& out_dir) {
   return (std::filesystem::path(out_dir) / kCheckpointFile).string();
+}
+
+// The checkpoint before the last: a resume falls back to it when the last one cannot be read
+// (damaged on disk, or cut short), instead of starting the run again from nothing.
+std::string previous_checkpoint_path(const std::string& out_dir) {
+  return (std::filesystem::path(out_dir) / kPreviousCheckpointFile).string();
 }
 
 // --- Observables ---------------------------------------------------------------------------
@@ -580,7 +587,9 @@ class CompressionRun {
     put_block(bytes, encode_state(state));
     put_block(bytes, system_.save_state());
     put(bytes, fnv1a(bytes.data() + sizeof kCheckpointMagic, bytes.size() - sizeof kCheckpointMagic));
-    write_file_atomically(checkpoint_path(options_.out_dir), bytes);
+    const std::string path = checkpoint_path(options_.out_dir);
+    if (std::filesystem::is_regular_file(path)) std::filesystem::rename(path, previous_checkpoint_path(options_.out_dir));
+    write_file_atomically(path, bytes);
     last_checkpoint_ = Clock::now();
   }
 
@@ -684,7 +693,8 @@ bool equilibrium_reached(const EquilibriumSample& sample, const gel::v1::Compres
 }
 
 bool has_checkpoint(const std::string& out_dir) {
-  return !out_dir.empty() && std::filesystem::is_regular_file(checkpoint_path(out_dir));
+  return !out_dir.empty() && (std::filesystem::is_regular_file(checkpoint_path(out_dir)) ||
+                              std::filesystem::is_regular_file(previous_checkpoint_path(out_dir)));
 }
 
 CompressionResult run_compression(const gel::v1::Scene& scene, const RunOptions& options, const Configuration* initial) {
@@ -733,33 +743,63 @@ CompressionResult run_compression(const gel::v1::Scene& scene, const RunOptions&
   return run.run();
 }
 
-CompressionResult resume_compression(const RunOptions& options) {
-  if (!has_checkpoint(options.out_dir))
-    throw InvalidArgument("out_dir", "no checkpoint in '" + options.out_dir + "'");
-  const std::string bytes = read_file(checkpoint_path(options.out_dir));
+namespace {
+struct LoadedCheckpoint {
+  gel::v1::Curve curve;
+  CompressionState state;
+  std::optional<System> system;
+};
+
+// Reads one checkpoint file; every problem is an InvalidArgument naming the file.
+LoadedCheckpoint load_checkpoint(const std::string& path) {
+  const std::string bytes = read_file(path);
   const bool v4 = bytes.size() >= sizeof kCheckpointMagic + sizeof(std::uint64_t) &&
                   std::memcmp(bytes.data(), kCheckpointMagic, sizeof kCheckpointMagic) == 0;
   const bool v3 = bytes.size() >= sizeof kCheckpointMagicV3 &&
                   std::memcmp(bytes.data(), kCheckpointMagicV3, sizeof kCheckpointMagicV3) == 0;
-  if (!v4 && !v3)
-    throw InvalidArgument("out_dir", "'" + checkpoint_path(options.out_dir) + "' is not a compression checkpoint");
+  if (!v4 && !v3) throw InvalidArgument("out_dir", "'" + path + "' is not a compression checkpoint");
   std::string body = bytes.substr(sizeof kCheckpointMagic);
   if (v4) {
     std::uint64_t stored = 0;
     std::memcpy(&stored, body.data() + body.size() - sizeof stored, sizeof stored);
     body.resize(body.size() - sizeof stored);
-    if (fnv1a(body.data(), body.size()) != stored)
-      throw InvalidArgument("out_dir", "'" + checkpoint_path(options.out_dir) + "' is corrupt (checksum mismatch)");
+    if (fnv1a(body.data(), body.size()) != stored) throw InvalidArgument("out_dir", "'" + path + "' is corrupt (checksum mismatch)");
   }
-  ByteReader reader(body);
-  gel::v1::Curve curve;
-  if (!curve.ParseFromString(reader.block())) throw InvalidArgument("out_dir", "checkpoint curve is corrupt");
-  const CompressionState state = decode_state(reader.block());
-  System system = System::load_state(reader.block());
-  if (!reader.done()) throw InvalidArgument("out_dir", "checkpoint has trailing bytes");
-  CompressionRun run(std::move(system), std::move(curve), state, options);
-  run.open_trajectory(true);
-  return run.run();
+  LoadedCheckpoint loaded;
+  try {
+    ByteReader reader(body);
+    if (!loaded.curve.ParseFromString(reader.block())) throw std::runtime_error("its curve is corrupt");
+    loaded.state = decode_state(reader.block());
+    loaded.system.emplace(System::load_state(reader.block()));
+    if (!reader.done()) throw std::runtime_error("it has trailing bytes");
+  } catch (const std::exception& e) {
+    throw InvalidArgument("out_dir", "'" + path + "' cannot be read: " + e.what());
+  }
+  return loaded;
+}
+}  // namespace
+
+CompressionResult resume_compression(const RunOptions& options) {
+  if (!has_checkpoint(options.out_dir))
+    throw InvalidArgument("out_dir", "no checkpoint in '" + options.out_dir + "'");
+  std::string problems;
+  for (const std::string& path : {checkpoint_path(options.out_dir), previous_checkpoint_path(options.out_dir)}) {
+    if (!std::filesystem::is_regular_file(path)) continue;
+    LoadedCheckpoint loaded;
+    try {
+      loaded = load_checkpoint(path);
+    } catch (const InvalidArgument& e) {
+      problems += (problems.empty() ? "" : "; ") + std::string(e.what());
+      continue;
+    }
+    CompressionRun run(std::move(*loaded.system), std::move(loaded.curve), loaded.state, options);
+    run.open_trajectory(true);
+    CompressionResult result = run.run();
+    result.resumed_from_previous_checkpoint = path == previous_checkpoint_path(options.out_dir);
+    result.checkpoint_problem = problems;
+    return result;
+  }
+  throw InvalidArgument("out_dir", problems);
 }
 
 }  // namespace gel

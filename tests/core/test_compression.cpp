@@ -373,7 +373,7 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
 TEST(Compression, ResumeIsBitIdentical) { expect_resume_bit_identical(tiny_scene()); }
 
 // The adaptive wall keeps controller state (speed factor, ledger baselines) in the checkpoint.
-TEST(Compression, ACheckpointWithAFlippedBitIsRefusedNotResumed) {
+TEST(Compression, ADamagedCheckpointIsNeverResumedButThePreviousOneIs) {
   // One flipped bit in the stored particle state used to parse fine and resume a corrupted run.
   const std::string dir = temp_dir("flipped");
   std::atomic<bool> stop{false};
@@ -385,22 +385,39 @@ TEST(Compression, ACheckpointWithAFlippedBitIsRefusedNotResumed) {
     if (p.k() >= 2) stop = true;
   };
   ASSERT_TRUE(run_compression(tiny_scene(), options).stopped);
-  const std::string path = dir + "/checkpoint.bin";
-  std::string bytes = read_file(path);
-  ASSERT_GT(bytes.size(), 1000u);
-  const std::string good = bytes;
-  bytes[bytes.size() - 200] ^= 0x10;  // inside the last block: the system's doubles
-  write_file_atomically(path, bytes);
+  const std::string path = dir + "/checkpoint.bin", previous = dir + "/checkpoint.prev.bin";
+  ASSERT_TRUE(std::filesystem::is_regular_file(previous)) << "no previous checkpoint kept";
+  const std::string good = read_file(path), good_previous = read_file(previous);
+  ASSERT_GT(good.size(), 1000u);
+  const auto flipped = [](std::string bytes) {
+    bytes[bytes.size() - 200] ^= 0x10;  // inside the last block: the system's doubles
+    return bytes;
+  };
+  // Both damaged: refused, each file's problem named.
+  write_file_atomically(path, flipped(good));
+  write_file_atomically(previous, flipped(good_previous));
   stop = false;
   try {
     resume_compression(options);
     ADD_FAILURE() << "a corrupted checkpoint was resumed";
   } catch (const InvalidArgument& e) {
-    EXPECT_NE(std::string(e.what()).find("checksum mismatch"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("checkpoint.bin' is corrupt (checksum mismatch)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("checkpoint.prev.bin' is corrupt (checksum mismatch)"), std::string::npos) << e.what();
   }
-  write_file_atomically(path, good);
+  // Only the last one damaged: the run goes on from the one before, to the same curve as an
+  // uninterrupted run (the run is deterministic; it only redoes the stretch in between).
+  write_file_atomically(previous, good_previous);
   options.on_progress = nullptr;
-  EXPECT_TRUE(resume_compression(options).finished);
+  const CompressionResult resumed = resume_compression(options);
+  EXPECT_TRUE(resumed.finished);
+  EXPECT_TRUE(resumed.resumed_from_previous_checkpoint);
+  EXPECT_NE(resumed.checkpoint_problem.find("checksum mismatch"), std::string::npos);
+  RunOptions whole;
+  whole.out_dir = temp_dir("flipped-reference");  // rows name their snapshots only with an out_dir
+  const CompressionResult reference = run_compression(tiny_scene(), whole);
+  std::filesystem::remove_all(whole.out_dir);
+  ASSERT_EQ(resumed.curve.rows_size(), reference.curve.rows_size());
+  for (int k = 0; k < reference.curve.rows_size(); ++k) expect_same_row(reference.curve.rows(k), resumed.curve.rows(k));
   std::filesystem::remove_all(dir);
 }
 

@@ -50,6 +50,11 @@ struct CompressionResult {
   gel::v1::Curve curve;
   bool stopped = false;   // stopped on request before the end (resumable from out_dir)
   bool finished = false;  // all targets done
+  // A resume whose last checkpoint could not be read goes on from the one before it (the
+  // run is deterministic, so the result is the same, only later): then this is set, and
+  // checkpoint_problem says what was wrong with the last one.
+  bool resumed_from_previous_checkpoint = false;
+  std::string checkpoint_problem;
 };
 
 // Runs a resolved or unresolved compression scene from its generator (or the configuration
@@ -73,7 +78,9 @@ struct EquilibriumSample {
 };
 bool equilibrium_reached(const EquilibriumSample& sample, const gel::v1::Compression& compression);
 
-// Continues from out_dir's checkpoint; the result is identical to an uninterrupted run.
+// Continues from out_dir's checkpoint (checkpoint.bin, or checkpoint.prev.bin when that cannot
+// be read); the result is identical to an uninterrupted run. Throws InvalidArgument naming
+// each file's problem when neither can be read.
 CompressionResult resume_compression(const RunOptions& options);
 bool has_checkpoint(const std::string& out_dir);
 
