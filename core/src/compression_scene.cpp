@@ -160,6 +160,21 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   gel::v1::Compression* c = resolved.mutable_compression();
   if (c->fidelity().empty()) c->set_fidelity("default");
   const Fidelity fidelity = fidelity_preset(c->fidelity());
+  if (!c->resolved_fidelity().empty() && c->resolved_fidelity() != c->fidelity()) {
+    // Every field the old fidelity filled in is filled again from the new one (an explicit
+    // value among them cannot be told from a derived one in a resolved scene, so it goes too).
+    c->clear_v_wall();
+    c->clear_v_wall_v0();
+    c->clear_m_exam();
+    c->clear_b_tolerance();
+    c->clear_max_wait_time();
+    c->clear_rest_speed();
+    c->clear_approach_shortcut();
+    c->clear_adaptive_wall_max_factor();
+    c->clear_adaptive_wall_drag_fraction();
+    c->clear_quasistatic();
+  }
+  c->set_resolved_fidelity(c->fidelity());
   const BondReference reference = bond_reference(resolved.bond().preset());
 
   if (c->w0() == 0.0) c->set_w0(kReferenceW0);

@@ -630,5 +630,26 @@ TEST(Compression, SceneJsonWithNestedArraysOrDeepNestingIsRefused) {
   EXPECT_EQ(scene.effects_size(), 2);
 }
 
+// A stored (resolved) scene resubmitted with another fidelity used to keep the old fidelity's
+// values while recording the new name: now it resolves exactly as the new fidelity would.
+TEST(Compression, AResolvedSceneGivenAnotherFidelityRunsThatFidelity) {
+  gel::v1::Scene paper;
+  paper.set_preset("quick");
+  paper.mutable_compression()->set_fidelity("paper");
+  gel::v1::Scene stored = resolve_compression_scene(paper);
+  EXPECT_EQ(stored.compression().resolved_fidelity(), "paper");
+  // Resolving again at the same fidelity changes nothing.
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(resolve_compression_scene(stored), stored));
+  stored.mutable_compression()->set_fidelity("fast");
+  const gel::v1::Scene rerun = resolve_compression_scene(stored);
+  gel::v1::Scene fast;
+  fast.set_preset("quick");
+  fast.mutable_compression()->set_fidelity("fast");
+  const gel::v1::Scene expected = resolve_compression_scene(fast);
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(rerun.compression(), expected.compression()))
+      << rerun.compression().DebugString() << "\nvs\n" << expected.compression().DebugString();
+  EXPECT_NE(rerun.compression().m_exam(), resolve_compression_scene(paper).compression().m_exam());
+}
+
 }  // namespace
 }  // namespace gel
