@@ -220,6 +220,12 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
     throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "name: longer than 256 characters");
   }
   Engine::Prepared prepared = engine_->prepare(request, options_.limits);
+  if (request.seeds_size() > 0) {
+    // The members' seeds are what ran: each is queryable as generator.seed, the scene's is not.
+    std::erase_if(prepared.parameters, [](const auto& parameter) { return std::get<0>(parameter) == "generator.seed"; });
+    for (const std::uint64_t seed : request.seeds())
+      prepared.parameters.emplace_back("generator.seed", std::to_string(seed), static_cast<double>(seed));
+  }
 
   gel::v1::Job job;
   job.set_name(request.name());

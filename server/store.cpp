@@ -214,6 +214,24 @@ CREATE TABLE member_finished (
   PRIMARY KEY (job_id, member)
 );
 )sql",
+    // 4 -> 5: a parameter may hold several values for one job: an ensemble's members each have
+    // their generator.seed, so a query for seed 3 finds the ensemble that ran seeds 3 and 4 (and
+    // not for the seed of the scene it was submitted with, which no member ran).
+    R"sql(
+CREATE TABLE parameters_v5 (
+  job_id TEXT NOT NULL REFERENCES jobs(id),
+  name TEXT NOT NULL,
+  value_text TEXT NOT NULL,
+  value_num REAL,
+  PRIMARY KEY (job_id, name, value_text)
+);
+INSERT INTO parameters_v5 SELECT job_id, name, value_text, value_num FROM parameters WHERE name <> 'generator.seed';
+INSERT OR IGNORE INTO parameters_v5
+  SELECT jobs.id, 'generator.seed', CAST(seed.value AS TEXT), seed.value FROM jobs, json_each(jobs.seeds) AS seed;
+DROP TABLE parameters;
+ALTER TABLE parameters_v5 RENAME TO parameters;
+CREATE INDEX parameters_name ON parameters(name, value_num);
+)sql",
 };
 static_assert(sizeof(kMigrations) / sizeof(kMigrations[0]) == Store::kSchemaVersion);
 

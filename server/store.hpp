@@ -75,7 +75,7 @@ struct StoredRow {
 
 class Store {
  public:
-  static constexpr int kSchemaVersion = 4;
+  static constexpr int kSchemaVersion = 5;
 
   explicit Store(const std::string& path);
   ~Store();

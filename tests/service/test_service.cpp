@@ -1049,6 +1049,25 @@ TEST_F(Service, QueryCurvesByBondLabelsAndParameters) {
   EXPECT_EQ(query(request).size(), 3u);
   request.set_state(gel::v1::JOB_STATE_FAILED);
   EXPECT_TRUE(query(request).empty());
+  // An ensemble is found by any of its members' seeds, not by the seed of the scene submitted.
+  request.clear_state();
+  const std::string ensemble = submit_ok(tiny_scene_json(), {3, 4}, "ensemble", {{"study", "s3"}});
+  watch(ensemble);
+  request.clear_parameters();
+  (*request.mutable_labels())["study"] = "s3";
+  auto* seed = request.add_parameters();
+  seed->set_field("generator.seed");
+  for (const char* value : {"3", "4"}) {
+    seed->set_equals(value);
+    gel::v1::QueryCurvesResponse found;
+    ASSERT_TRUE(stub_->QueryCurves(ctx().get(), request, &found).ok());
+    ASSERT_EQ(found.curves_size(), 1) << "seed " << value;
+    EXPECT_EQ(found.curves(0).job().id(), ensemble);
+  }
+  seed->set_equals("1");
+  gel::v1::QueryCurvesResponse not_found;
+  ASSERT_TRUE(stub_->QueryCurves(ctx().get(), request, &not_found).ok());
+  EXPECT_EQ(not_found.curves_size(), 0) << "found by the submitted scene's seed, which no member ran";
   gel::v1::QueryCurvesRequest bad;
   bad.add_parameters()->set_equals("1");
   gel::v1::QueryCurvesResponse response;
@@ -1546,7 +1565,8 @@ TEST(Store, MigratesFromAnOlderSchemaVersion) {
     job.add_seeds(7);
     job.set_particles(64);
     job.set_created_unix_ms(1);
-    id = store.insert_job(job, "{}", {});
+    // Stored as before version 5: the submitted scene's seed, not the member's.
+    id = store.insert_job(job, "{}", {{"generator.seed", "1", 1.0}, {"generator.lx", "30", 30.0}});
   }
   // Turn the file into a version 1 database: no indexes (v2), no member_runs table (v3), no
   // member_finished table (v4).
@@ -1574,6 +1594,20 @@ TEST(Store, MigratesFromAnOlderSchemaVersion) {
     EXPECT_TRUE(store.finished_members(id).empty());
     store.set_member_finished(id, 0, 3);
     EXPECT_EQ(store.finished_members(id), std::vector<int>{0});
+  }
+  // Version 5 holds the members' seeds as generator.seed (7), not the scene's (1); others stay.
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    sqlite3_stmt* stmt = nullptr;
+    ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT name, value_text FROM parameters ORDER BY name, value_text", -1, &stmt, nullptr), SQLITE_OK);
+    std::vector<std::string> rows;
+    while (sqlite3_step(stmt) == SQLITE_ROW)
+      rows.push_back(std::string(reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0))) + "=" +
+                     reinterpret_cast<const char*>(sqlite3_column_text(stmt, 1)));
+    sqlite3_finalize(stmt);
+    sqlite3_close(db);
+    EXPECT_EQ(rows, (std::vector<std::string>{"generator.lx=30", "generator.seed=7"}));
   }
   // A newer schema than this geld knows is refused.
   {
