@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <optional>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -299,10 +300,14 @@ gel::v1::Job JobManager::cancel(const std::string& id) {
     throw unavailable();
   }
   bool idle = false;  // queued, or between members, with no member running: cancel at once
+  std::optional<std::size_t> queue_position;  // where it was queued, to put it back on failure
   {
     std::lock_guard lock(mutex_);
     auto it = std::find(queue_.begin(), queue_.end(), id);
-    if (it != queue_.end()) queue_.erase(it);
+    if (it != queue_.end()) {
+      queue_position = static_cast<std::size_t>(it - queue_.begin());
+      queue_.erase(it);
+    }
     std::lock_guard live_lock(live->mutex);
     idle = !live->ended && live->members_running == 0;
     if (idle) {
@@ -316,7 +321,26 @@ gel::v1::Job JobManager::cancel(const std::string& id) {
       std::lock_guard lock(live->mutex);
       ran = live->started;
     }
-    end_job(live, gel::v1::JOB_STATE_CANCELLED, ran ? "cancelled while running" : "cancelled before it ran");
+    try {
+      end_job(live, gel::v1::JOB_STATE_CANCELLED, ran ? "cancelled while running" : "cancelled before it ran");
+    } catch (...) {
+      // The cancel could not be stored (a full or failing disk): undo it, so that the job is
+      // as it was (queued at its place) and the caller, told of the failure, can try again.
+      // Otherwise the job was neither cancelled in the store nor queued any more, and a
+      // restarted geld ran it.
+      {
+        std::lock_guard live_lock(live->mutex);
+        live->ending = false;
+        live->cancel_requested = false;
+        live->stop = false;
+      }
+      if (queue_position) {
+        std::lock_guard lock(mutex_);
+        queue_.insert(queue_.begin() + static_cast<std::ptrdiff_t>(std::min(*queue_position, queue_.size())), id);
+      }
+      queue_changed_.notify_all();
+      throw;
+    }
     {
       std::lock_guard lock(mutex_);
       live_.erase(id);

@@ -1438,6 +1438,40 @@ class FileWritesFail {
   void (*saved_handler_)(int) = SIG_ERR;
 };
 
+// A cancel that cannot be stored used to leave the job neither cancelled nor queued (and a
+// restarted geld ran it): now the caller gets the error, the job stays queued, and a retry works.
+TEST_F(Service, ACancelThatCannotBeStoredLeavesTheJobQueuedAndCanBeRetried) {
+  Script& script = make_script();
+  script.rows = 2;
+  script.open_rows = 1;  // the first job holds the only worker until the gate opens
+  start({}, 1, scripted(script));
+  const std::string busy = submit_ok(tiny_scene_json(), {}, "busy");
+  ASSERT_TRUE(wait_for([&] { return get(busy).rows() == 1; }));
+  const std::string queued = submit_ok(tiny_scene_json(), {}, "queued");
+  ASSERT_EQ(get(queued).state(), gel::v1::JOB_STATE_QUEUED);
+  grpc::Status cancel_status;
+  {
+    FileWritesFail fault(1);
+    gel::v1::CancelJobRequest request;
+    request.set_job_id(queued);
+    gel::v1::Job reply;
+    cancel_status = stub_->CancelJob(ctx().get(), request, &reply);
+  }
+  EXPECT_FALSE(cancel_status.ok()) << "a cancel that was not stored was acknowledged";
+  EXPECT_EQ(get(queued).state(), gel::v1::JOB_STATE_QUEUED);
+  gel::v1::CancelJobRequest retry;
+  retry.set_job_id(queued);
+  gel::v1::Job cancelled;
+  const grpc::Status retry_status = stub_->CancelJob(ctx().get(), retry, &cancelled);
+  ASSERT_TRUE(retry_status.ok()) << retry_status.error_message();
+  EXPECT_EQ(cancelled.state(), gel::v1::JOB_STATE_CANCELLED);
+  script.open();
+  watch(busy);
+  EXPECT_EQ(get(busy).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(get(queued).state(), gel::v1::JOB_STATE_CANCELLED);
+  EXPECT_EQ(get(queued).rows(), 0);
+}
+
 TEST_F(Service, StoreWriteFailureIsInternalAndReadsGoOn) {
   Script& script = make_script();
   script.rows = 2;
