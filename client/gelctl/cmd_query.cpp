@@ -19,15 +19,30 @@ struct QueryArgs {
 };
 
 // "field=value", "field>=x" or "field<=x" into a parameter filter of the request.
+// A bound of --where as a number; anything else (std::stod's bare "stod" exception, exit 1)
+// is bad input naming the option.
+double where_bound(const std::string& where, const std::string& text) {
+  std::size_t used = 0;
+  double value = 0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(value))
+    throw gelctl::UsageError("--where: '" + where + "': '" + text + "' is not a number");
+  return value;
+}
+
 void add_parameter_filter(gel::v1::QueryCurvesRequest& request, const std::string& where) {
   auto* filter = request.add_parameters();
   std::size_t pos;
   if ((pos = where.find(">=")) != std::string::npos) {
     filter->set_field(where.substr(0, pos));
-    filter->set_min(std::stod(where.substr(pos + 2)));
+    filter->set_min(where_bound(where, where.substr(pos + 2)));
   } else if ((pos = where.find("<=")) != std::string::npos) {
     filter->set_field(where.substr(0, pos));
-    filter->set_max(std::stod(where.substr(pos + 2)));
+    filter->set_max(where_bound(where, where.substr(pos + 2)));
   } else if ((pos = where.find('=')) != std::string::npos) {
     filter->set_field(where.substr(0, pos));
     filter->set_equals(where.substr(pos + 1));

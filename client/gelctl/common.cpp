@@ -168,12 +168,29 @@ std::string resolve_token(const std::string& token_file) {
   return token;
 }
 
-Client::Client(const std::string& server, std::string token, double timeout_seconds)
+namespace {
+std::shared_ptr<grpc::ChannelCredentials> channel_credentials(const TlsFiles& tls) {
+  if (tls.ca.empty()) {
+    if (!tls.certificate.empty() || !tls.key.empty()) throw UsageError("--tls-cert/--tls-key: need --tls-ca (the CA of geld's certificate)");
+    return grpc::InsecureChannelCredentials();
+  }
+  if (tls.certificate.empty() != tls.key.empty()) throw UsageError("--tls-cert and --tls-key go together");
+  grpc::SslCredentialsOptions ssl;
+  ssl.pem_root_certs = read_file(tls.ca);
+  if (!tls.certificate.empty()) {
+    ssl.pem_cert_chain = read_file(tls.certificate);
+    ssl.pem_private_key = read_file(tls.key);
+  }
+  return grpc::SslCredentials(ssl);
+}
+}  // namespace
+
+Client::Client(const std::string& server, std::string token, double timeout_seconds, const TlsFiles& tls)
     : token_(std::move(token)), timeout_seconds_(timeout_seconds) {
   grpc::ChannelArguments args;
   // Curves (GetCurve, QueryCurves) can exceed gRPC's 4 MiB default for what a client receives.
   args.SetMaxReceiveMessageSize(256 * 1024 * 1024);
-  channel_ = grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args);
+  channel_ = grpc::CreateCustomChannel(server, channel_credentials(tls), args);
   stub_ = gel::v1::GelService::NewStub(channel_);
 }
 

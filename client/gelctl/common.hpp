@@ -38,9 +38,16 @@ void throw_if_failed(const grpc::Status& status);
 // The bearer token: the first line of `token_file` when given, else $GELD_TOKEN, else none.
 std::string resolve_token(const std::string& token_file);
 
+// TLS towards a geld started with --tls-cert (PEM file paths; empty ca: plain text).
+struct TlsFiles {
+  std::string ca;           // the CA that signed geld's certificate
+  std::string certificate;  // this client's certificate, for a geld with --tls-client-ca
+  std::string key;
+};
+
 class Client {
  public:
-  Client(const std::string& server, std::string token, double timeout_seconds);
+  Client(const std::string& server, std::string token, double timeout_seconds, const TlsFiles& tls = {});
 
   // A call's context with the token and, unless `with_deadline` is false (streams that last as
   // long as a job), the per-call timeout.

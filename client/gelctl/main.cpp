@@ -30,6 +30,11 @@ int main(int argc, char** argv) {
   app.add_option("--server,-s", server, "geld address host:port (env GELD_SERVER)")->capture_default_str();
   app.add_option("--token-file", token_file, "File with the bearer token (env GELD_TOKEN_FILE; or GELD_TOKEN)");
   app.add_option("--timeout", timeout, "Seconds per call (not for watch)")->capture_default_str();
+  TlsFiles tls;
+  if (const char* ca = std::getenv("GELD_TLS_CA")) tls.ca = ca;
+  app.add_option("--tls-ca", tls.ca, "PEM CA of geld's TLS certificate: talk TLS (env GELD_TLS_CA)");
+  app.add_option("--tls-cert", tls.certificate, "PEM client certificate, for a geld that requires one (mutual TLS)");
+  app.add_option("--tls-key", tls.key, "PEM private key of --tls-cert");
 
   auto& commands = registry();
   std::stable_sort(commands.begin(), commands.end(),
@@ -50,7 +55,7 @@ int main(int argc, char** argv) {
   }
 
   try {
-    Client client(server, resolve_token(token_file), timeout);
+    Client client(server, resolve_token(token_file), timeout, tls);
     for (auto& [sub, run] : runners)
       if (sub->parsed()) return run(client);
   } catch (const UsageError& e) {

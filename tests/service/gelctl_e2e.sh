@@ -93,6 +93,8 @@ logs=$(ctl logs "$job") || fail "logs"
 grep -qE " member 0 finished with 4 rows$" <<<"$logs" || fail "logs lack the member's end: $logs"
 listed=$(ctl query --label suite=e2e) || fail "query"
 grep -qE "^$job +e2e +bond1 " <<<"$listed" || fail "query does not show $job: $listed"
+set +e; ctl query --where 'generator.lx>=abc' > /dev/null 2> "$work/where.err"; code=$?; set -e
+[ "$code" -eq 2 ] && grep -q -- "--where" "$work/where.err" || fail "a non-numeric --where bound: exit $code, $(cat "$work/where.err")"
 ctl watch "$job" >/dev/null || fail "watch of a succeeded job exited non-zero"
 echo "ok: submit --watch, status --json, curve --json/--csv/--png, list, logs, query ($job)"
 

@@ -9,6 +9,7 @@
 set -euo pipefail
 build=$(cd "$1" && pwd)
 geld=$build/server/geld
+gelctl=$build/client/gelctl
 py=/usr/bin/python3
 work=$(mktemp -d /tmp/geld-tls.XXXXXX)
 geld_pid=
@@ -77,6 +78,8 @@ expect OK tls s3cret-token
 expect UNAUTHENTICATED tls -
 expect UNAUTHENTICATED tls wrong
 expect UNAVAILABLE plain s3cret-token
+"$gelctl" --server "127.0.0.1:$port" --token-file token --tls-ca ca.pem list > /dev/null || fail "gelctl over TLS"
+if "$gelctl" --server "127.0.0.1:$port" --token-file token --timeout 3 list > /dev/null 2>&1; then fail "gelctl in plain text was served"; fi
 stop_geld
 
 # 2. Mutual TLS: a client certificate is required before any call.
@@ -84,6 +87,11 @@ start_geld --tls-cert server.pem --tls-key server.key --tls-client-ca ca.pem
 grep -q "(mutual TLS)" geld.log || fail "the log does not say mutual TLS"
 expect OK tls+cert s3cret-token
 expect UNAVAILABLE tls s3cret-token
+"$gelctl" --server "127.0.0.1:$port" --token-file token --tls-ca ca.pem --tls-cert client.pem --tls-key client.key list > /dev/null \
+  || fail "gelctl with a client certificate"
+if "$gelctl" --server "127.0.0.1:$port" --token-file token --tls-ca ca.pem --timeout 3 list > /dev/null 2>&1; then
+  fail "gelctl without a client certificate was served"
+fi
 stop_geld
 
 # 3. Refusals at start, each naming the option.
