@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every build and test dependency from Debian's archive (idempotent, non-interactive)
 # and builds the project into build/ (or $GEL_BUILD_DIR). Extra CMake arguments pass through.
+# Slurm and munge are installed only with GEL_WITH_SLURM=1 (scripts/test.sh sets it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -13,8 +14,12 @@ PACKAGES=(
   python3 python3-grpcio python3-protobuf
   python3-numpy python3-ase python3-gsd python3-vtk9 python3-pandas
   systemd openssl
-  slurmctld slurmd slurm-client munge
 )
+# Slurm (daemons and munge) only where it is asked for: the Slurm executor's tests, or a
+# machine that submits to a cluster. GEL_WITH_SLURM=1 (scripts/test.sh sets it).
+if [ "${GEL_WITH_SLURM:-0}" = "1" ]; then
+  PACKAGES+=(slurmctld slurmd slurm-client munge)
+fi
 
 missing=()
 for package in "${PACKAGES[@]}"; do

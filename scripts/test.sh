@@ -7,6 +7,7 @@ JOBS="$(nproc)"
 # The Slurm tests start their own one-node cluster; here a cluster that cannot start fails them
 # instead of skipping them unseen. GEL_REQUIRE_SLURM=0 allows the skip (no root, no Slurm).
 export GEL_REQUIRE_SLURM="${GEL_REQUIRE_SLURM:-1}"
+export GEL_WITH_SLURM="${GEL_WITH_SLURM:-1}"
 
 GEL_BUILD_DIR=build scripts/setup.sh
 (cd build && ctest --output-on-failure -j "$JOBS" --timeout 900)

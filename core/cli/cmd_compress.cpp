@@ -390,7 +390,7 @@ int run_ensemble(const CompressArgs& args) {
 int run_compress(const CompressArgs& args) {
   if (!args.seeds.empty()) {
     if (args.seed) throw gel::InvalidArgument("--seeds", "give --seed (one run) or --seeds (an ensemble), not both");
-    if (!args.config_file.empty()) throw gel::InvalidArgument("--seeds", "an ensemble generates its gels: --config is for one run");
+    if (!args.config_file.empty()) throw gel::InvalidArgument("--seeds", "an ensemble generates its gels: --gel is for one run");
     return run_ensemble(args);
   }
   if (args.resume) {
@@ -472,7 +472,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   auto args = std::make_shared<CompressArgs>();
   sub.add_option("--preset", args->preset, "scene preset: quick (default), paper-bond1, paper-bond2");
   sub.add_option("--scene", args->scene_file, "scene JSON (gel.v1.Scene); options below override it");
-  sub.add_option("--config", args->config_file, "start from this configuration instead of generating a gel");
+  // --gel: --config means a daemon configuration file in geld; the old name still works here.
+  sub.add_option("--gel,--config", args->config_file, "start from this gel (a configuration file, .json or .pb) instead of generating one");
   sub.add_option("--bond", args->bond, "bond preset: bond1, bond2");
   sub.add_option("--seed", args->seed, "generator seed (0 .. 2^64-1; a negative number is refused, not wrapped)")
       ->check(CLI::Validator(
