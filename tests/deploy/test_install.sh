@@ -19,6 +19,10 @@ for program in gelsim geld gelctl; do
     || fail "$program --version: $("$HOME/.local/bin/$program" --version)"
 done
 [ -f "$HOME/.local/share/doc/gelsim/docs/model.md" ] || fail "docs/model.md not installed"
+# The Python package, from the prefix alone (Debian's interpreter finds ~/.local's site-packages).
+(cd "$WORK" && env -i HOME="$HOME" PATH=/usr/bin:/bin /usr/bin/python3 -c \
+  "import gel, os; assert gel.__file__.startswith(os.environ['HOME']), gel.__file__; from gel.v1 import service_pb2; print(gel.connect)") \
+  > "$WORK/python.log" 2>&1 || fail "import gel from the prefix: $(tail -3 "$WORK/python.log")"
 
 # The quickstart block of the README, run line by line in a fresh folder by a fresh shell whose
 # PATH does not contain the build tree.

@@ -1,0 +1,222 @@
+"""A connection to geld: submit, follow, list and cancel jobs, fetch their curves."""
+import copy
+import json
+import numbers
+import os
+
+import grpc
+
+from . import curves
+from .errors import error_from_rpc
+from .messages import job_to_dict, message_to_dict, update_to_dict
+from .v1 import scene_pb2, service_pb2, service_pb2_grpc
+
+DEFAULT_ADDRESS = "127.0.0.1:50051"
+
+# Curves of large ensembles exceed gRPC's 4 MiB default for a received message; gelctl allows 256 MiB too.
+_MAX_RECEIVE_BYTES = 256 * 1024 * 1024
+
+_STATE_NAMES = ("queued", "running", "succeeded", "failed", "cancelled")
+
+
+def _token_from_environment():
+    # gelctl's order: the first line of $GELD_TOKEN_FILE, else $GELD_TOKEN.
+    token_file = os.environ.get("GELD_TOKEN_FILE")
+    if token_file:
+        return read_token_file(token_file)
+    return os.environ.get("GELD_TOKEN") or None
+
+
+def read_token_file(path):
+    """The bearer token in the first line of `path` (geld --token-file's format)."""
+    with open(path, encoding="utf-8") as token_file:
+        return token_file.readline().strip()
+
+
+def _read_bytes(path):
+    with open(path, "rb") as pem_file:
+        return pem_file.read()
+
+
+def connect(address=None, token=None, *, token_file=None, timeout=30.0, tls_ca=None, tls_cert=None,
+            tls_key=None):
+    """A Client for the geld at `address` ("HOST:PORT"; default $GELD_SERVER, else 127.0.0.1:50051).
+
+    token: the bearer token of a geld started with --token-file; when neither it nor `token_file`
+    is given, it is read as gelctl reads it: the first line of $GELD_TOKEN_FILE, else $GELD_TOKEN.
+    timeout: seconds per call (not for watch(), which lasts as long as the job).
+    tls_ca: PEM file of the CA that signed geld's --tls-cert (default $GELD_TLS_CA): talk TLS;
+    tls_cert, tls_key: this client's certificate and key, for a geld with --tls-client-ca.
+    Nothing is sent until the first call, so an unreachable geld shows there (GelError UNAVAILABLE).
+    """
+    address = address or os.environ.get("GELD_SERVER") or DEFAULT_ADDRESS
+    if token is None:
+        token = read_token_file(token_file) if token_file else _token_from_environment()
+    tls_ca = tls_ca or os.environ.get("GELD_TLS_CA") or None
+    options = [("grpc.max_receive_message_length", _MAX_RECEIVE_BYTES)]
+    if tls_ca:
+        if (tls_cert is None) != (tls_key is None):
+            raise ValueError("connect: tls_cert and tls_key go together")
+        credentials = grpc.ssl_channel_credentials(
+            root_certificates=_read_bytes(tls_ca),
+            private_key=_read_bytes(tls_key) if tls_key else None,
+            certificate_chain=_read_bytes(tls_cert) if tls_cert else None)
+        channel = grpc.secure_channel(address, credentials, options=options)
+    else:
+        if tls_cert or tls_key:
+            raise ValueError("connect: tls_cert/tls_key need tls_ca (the CA of geld's certificate)")
+        channel = grpc.insecure_channel(address, options=options)
+    return Client(channel, address, token, timeout)
+
+
+def _json_number(value):
+    # numpy scalars (a seed sweep over numpy.arange) are numbers to the caller; json needs them as Python's.
+    if isinstance(value, numbers.Real) and hasattr(value, "item"):
+        return value.item()
+    raise TypeError(f"submit: {value!r} ({type(value).__name__}) cannot go into a scene")
+
+
+def _set_dotted(scene, dotted_name, value):
+    node = scene
+    *parents, leaf = dotted_name.split(".")
+    for key in parents:
+        if not isinstance(node.get(key), dict):
+            node[key] = {}
+        node = node[key]
+    node[leaf] = value
+
+
+class Client:
+    """geld's API as Python calls. Made by connect(); usable as a context manager (closes the channel).
+
+    Every failed call raises gel.GelError ("CODE: message", as gelctl prints it):
+    JobNotFoundError for an unknown job id, InvalidRequestError for a field geld refuses."""
+
+    def __init__(self, channel, address, token, timeout):
+        self._channel = channel
+        self._stub = service_pb2_grpc.GelServiceStub(channel)
+        self._metadata = (("authorization", f"Bearer {token}"),) if token else ()
+        self.address = address
+        self.timeout = timeout
+
+    def close(self):
+        self._channel.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exception):
+        self.close()
+
+    def _call(self, method, request, job_id=None):
+        try:
+            return method(request, metadata=self._metadata, timeout=self.timeout)
+        except grpc.RpcError as error:
+            raise error_from_rpc(error, self.address, job_id) from None
+
+    def submit(self, scene, *, seeds=None, name="", labels=None, fidelity=None, overrides=None):
+        """Submit a compression job; returns its id ("job-000001").
+
+        scene: a scene preset name ("quick", "paper-bond1", "paper-bond2", ...), a dict in the
+          JSON form of gel.v1.Scene (as `gelctl submit --scene` files: {"preset": "quick",
+          "compression": {"steps": 3}}; lengths in a, times in t0), or a gel.v1.Scene message.
+        seeds: a seed or a list of seeds; several make an ensemble, one member per seed.
+          None: the scene's own generator.seed.
+        name, labels: the job's name and {key: value} labels (strings), for jobs() and queries.
+        fidelity: compression.fidelity ("fast", "default", "paper", "quasistatic").
+        overrides: {"dotted.field": value} applied to the scene, as gelctl's --set
+          ({"compression.steps": 3, "generator.lx": 30}).
+        """
+        request = service_pb2.SubmitJobRequest(name=name, labels=labels or {})
+        if seeds is not None:
+            request.seeds.extend([int(seeds)] if isinstance(seeds, numbers.Integral) else [int(s) for s in seeds])
+        if isinstance(scene, scene_pb2.Scene):
+            if fidelity or overrides:
+                scene = message_to_dict(scene)
+            else:
+                request.scene.CopyFrom(scene)
+        if not request.HasField("scene"):
+            # A copy: the caller's dict is theirs to reuse.
+            scene_dict = {"preset": scene} if isinstance(scene, str) else copy.deepcopy(scene)
+            if fidelity:
+                _set_dotted(scene_dict, "compression.fidelity", fidelity)
+            for dotted_name, value in (overrides or {}).items():
+                _set_dotted(scene_dict, dotted_name, value)
+            # As JSON text, so that geld resolves presets and names a bad field ("scene_json: ...").
+            request.scene_json = json.dumps(scene_dict, default=_json_number)
+        return self._call(self._stub.SubmitJob, request).job_id
+
+    def job(self, job_id):
+        """One job as a dict (see gel.messages.job_to_dict): id, name, state, seeds, particles, rows, ..."""
+        return job_to_dict(self._call(self._stub.GetJob, service_pb2.GetJobRequest(job_id=job_id), job_id))
+
+    def jobs(self, *, state=None, label=None, name=None):
+        """Every job geld has, newest first, as dicts (job()'s keys); pandas.DataFrame(client.jobs())
+        makes a table. state: "queued", "running", "succeeded", "failed" or "cancelled";
+        label: "key=value" or "key" (has the label); name: exact name."""
+        request = service_pb2.ListJobsRequest(label=label or "", name=name or "", page_size=1000)
+        if state:
+            if state not in _STATE_NAMES:
+                raise ValueError(f"jobs: unknown state {state!r} ({', '.join(_STATE_NAMES)})")
+            request.state = service_pb2.JobState.Value("JOB_STATE_" + state.upper())
+        found = []
+        while True:
+            response = self._call(self._stub.ListJobs, request)
+            found.extend(job_to_dict(job) for job in response.jobs)
+            if not response.next_page_token:
+                return found
+            request.page_token = response.next_page_token
+
+    def watch(self, job_id):
+        """Follow a job: yields one dict per update (gel.messages.update_to_dict), first a
+        "snapshot" (the job now) and the rows stored so far, then "state", "progress", "row" and
+        "log" updates as they happen; the iteration ends when the job has ended (the last "state"
+        dict says how: state "succeeded", "failed" or "cancelled"). Stopping the iteration early
+        closes the stream. Being a generator, it calls geld at the first iteration: that is where an
+        unknown job id raises JobNotFoundError."""
+        stream = self._stub.WatchJob(service_pb2.WatchJobRequest(job_id=job_id), metadata=self._metadata)
+        try:
+            for update in stream:
+                yield update_to_dict(update)
+        except grpc.RpcError as error:
+            raise error_from_rpc(error, self.address, job_id) from None
+        finally:
+            stream.cancel()
+
+    def cancel(self, job_id):
+        """Cancel a queued or running job; returns the job (dict). A job that already ended:
+        GelError FAILED_PRECONDITION."""
+        return job_to_dict(self._call(self._stub.CancelJob, service_pb2.CancelJobRequest(job_id=job_id), job_id))
+
+    def _curve(self, job_id):
+        return self._call(self._stub.GetCurve, service_pb2.GetCurveRequest(job_id=job_id), job_id)
+
+    def curve(self, job_id):
+        """The job's P_y(phi) curve so far as a pandas.DataFrame, one row per equilibrium of each
+        member: columns gel.CURVE_COLUMNS, i.e. member and seed, then the engine's curve.csv columns
+        with units ("phi [1]", "P [F0/a^2]", "stored_energy [F0 a]", "steps [count]", ...)."""
+        return curves.curve_frame(self._curve(job_id))
+
+    def curve_arrays(self, job_id):
+        """curve()'s columns as {name: numpy array}, plus "phi_profile [1]": a (rows, slices)
+        array of phi per slice along y, bottom to top."""
+        return curves.curve_arrays(self._curve(job_id))
+
+    def ensemble_curve(self, job_id):
+        """An ensemble's mean and sample standard deviation per phi_k as a pandas.DataFrame: k, n
+        (members that reached phi_k), "phi [1]", "phi_std [1]", "P [F0/a^2]", "P_std [F0/a^2]", ...
+        Empty for a single-seed job."""
+        return curves.ensemble_frame(self._curve(job_id))
+
+    def logs(self, job_id):
+        """The job's log lines as dicts: id, unix_ms, level, message."""
+        request = service_pb2.GetLogsRequest(job_id=job_id)
+        lines = []
+        while True:
+            # geld answers at most 1000 lines a call; ask again after the last one until none is left.
+            response = self._call(self._stub.GetLogs, request, job_id)
+            if not response.lines:
+                return lines
+            lines.extend({"id": line.id, "unix_ms": line.unix_ms, "level": line.level, "message": line.message}
+                         for line in response.lines)
+            request.after_id = response.lines[-1].id

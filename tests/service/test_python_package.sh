@@ -1,0 +1,219 @@
+#!/usr/bin/env bash
+# The Python package `gel` (client/python/gel) against a real geld on loopback, with Debian's
+# /usr/bin/python3 (python3-grpcio, python3-protobuf, python3-numpy, python3-pandas):
+#   connect with the token read as gelctl reads it; a wrong token is UNAUTHENTICATED
+#   submit a small 2-seed ensemble, watch it from queued to succeeded (snapshot, progress and
+#     rows as plain dicts with numbers as numbers), cancel a running job
+#   curve() as a DataFrame: rows, dtypes, the engine's curve.csv header and values, and the
+#     same numbers as `gelctl curve --json`; curve_arrays(), ensemble_curve(), jobs(), logs()
+#   read_configuration() of `gelsim generate` output (.json and .pb) and of a job's snapshot
+#   an unknown job id raises JobNotFoundError naming it
+#
+#   test_python_package.sh BUILD_DIR      (exit 77: skipped, no stubs or no Debian Python modules)
+set -euo pipefail
+build=$(cd "$1" && pwd)
+source_dir=$(cd "$(dirname "$0")/../.." && pwd)
+geld=$build/server/geld
+gelctl=$build/client/gelctl
+gelsim=$build/core/gelsim
+py=/usr/bin/python3
+stubs=$build/client/python
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+[ -f "$stubs/gel/v1/service_pb2_grpc.py" ] || { echo "skipped: no Python stubs in $stubs (grpc_python_plugin missing?)"; exit 77; }
+$py -c 'import grpc, google.protobuf, numpy, pandas' 2>/dev/null \
+  || { echo "skipped: $py lacks python3-grpcio, python3-protobuf, python3-numpy or python3-pandas"; exit 77; }
+
+work=$(mktemp -d /tmp/gel-python.XXXXXX)
+geld_pid=
+stop_geld() {
+  [ -n "$geld_pid" ] || return 0
+  kill -TERM "$geld_pid" 2>/dev/null || true
+  for _ in $(seq 1 100); do kill -0 "$geld_pid" 2>/dev/null || break; sleep 0.05; done
+  kill -KILL "$geld_pid" 2>/dev/null || true
+  wait "$geld_pid" 2>/dev/null || true
+  geld_pid=
+}
+cleanup() {
+  stop_geld
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+port=$($py -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1]); s.close()')
+server=127.0.0.1:$port
+echo "python-test-token-$$" >"$work/token"
+chmod 600 "$work/token"
+data=$work/data
+# One worker: the job queued behind a running one cannot start before the watch has begun.
+"$geld" --listen "$server" --data-dir "$data" --token-file "$work/token" --workers 1 --log-level info \
+  >"$work/geld.log" 2>&1 &
+geld_pid=$!
+for _ in $(seq 1 300); do
+  "$gelctl" --server "$server" --token-file "$work/token" list >/dev/null 2>&1 && break
+  kill -0 "$geld_pid" 2>/dev/null || { cat "$work/geld.log" >&2; fail "geld did not start"; }
+  sleep 0.05
+done
+
+"$gelsim" generate --preset quick --seed 2 --out "$work/gel.json" >/dev/null || fail "gelsim generate (json)"
+"$gelsim" generate --preset quick --seed 2 --out "$work/gel.pb" >/dev/null || fail "gelsim generate (pb)"
+
+# The source package and the build tree's stubs, as a researcher uses them from a checkout.
+PYTHONPATH=$source_dir/client/python GEL_PYTHON_STUBS=$stubs GELD_SERVER=$server GELD_TOKEN_FILE=$work/token \
+  $py - "$gelctl" "$data" "$work" <<'PY' || fail "python package checks"
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy
+import pandas
+
+import gel
+
+gelctl, data_dir, work = sys.argv[1:4]
+client = gel.connect()  # address and token from GELD_SERVER and GELD_TOKEN_FILE, as gelctl
+
+try:
+    gel.connect(token="not-the-token").jobs()
+    raise AssertionError("a wrong token was accepted")
+except gel.GelError as error:
+    assert error.code == "UNAUTHENTICATED", error
+
+# A long job holds the only worker, so the small job waits queued until it is cancelled.
+blocker = client.submit("quick", seeds=[7], name="blocker")
+small = client.submit("quick", seeds=[1, 2], name="python", labels={"suite": "python"}, fidelity="fast",
+                      overrides={"generator.n_floc": 8, "generator.n_clusters": 8, "generator.lx": 30,
+                                 "generator.ly": 50, "compression.steps": 3})
+updates = client.watch(small)
+first = next(updates)
+assert first["type"] == "snapshot" and first["state"] == "queued", first
+cancelled = client.cancel(blocker)
+assert cancelled["state"] == "cancelled" and cancelled["id"] == blocker, cancelled
+try:
+    client.cancel(blocker)
+    raise AssertionError("cancelling an ended job succeeded")
+except gel.GelError as error:
+    assert error.code == "FAILED_PRECONDITION", error
+updates = [first] + list(updates)
+
+def assert_numbers(update, keys):
+    for key in keys:
+        assert isinstance(update[key], (int, float)) and not isinstance(update[key], bool), (key, update)
+
+sequences = [u["sequence"] for u in updates]
+assert sequences == sorted(sequences) and len(set(sequences)) == len(sequences), sequences
+progress = [u for u in updates if u["type"] == "progress"]
+rows = [u for u in updates if u["type"] == "row"]
+assert {u["member"] for u in progress} == {0, 1}, progress
+assert any(u["phase"] == "done" for u in progress), [u["phase"] for u in progress]
+for u in progress:
+    assert_numbers(u, ("member", "seed", "k", "k_total", "phi", "target_phi", "P", "steps", "elapsed_seconds",
+                       "remaining_seconds"))
+    assert_numbers(u["events"], ("normal", "sliding", "rolling", "created"))
+assert len(rows) == 8, len(rows)
+for u in rows:
+    assert_numbers(u, ("member", "seed", "k", "phi", "P", "P_top", "P_bot", "contact_number", "steps", "sim_time",
+                       "bonds_created"))
+assert updates[-1]["type"] == "state" and updates[-1]["state"] == "succeeded", updates[-1]
+assert updates[-1]["job"]["rows"] == 8 and updates[-1]["job"]["seeds"] == [1, 2], updates[-1]["job"]
+print(f"ok: watch {small}: {len(updates)} updates, {len(progress)} progress, {len(rows)} rows, succeeded")
+
+curve = client.curve(small)
+assert isinstance(curve, pandas.DataFrame)
+assert len(curve) == 8, len(curve)
+assert list(curve.columns) == list(gel.CURVE_COLUMNS), list(curve.columns)
+for column in curve.columns:
+    if column != "snapshot":
+        assert pandas.api.types.is_numeric_dtype(curve[column]), (column, curve[column].dtype)
+assert pandas.api.types.is_integer_dtype(curve["k"]) and pandas.api.types.is_integer_dtype(curve["steps [count]"])
+assert list(curve["member"]) == [0] * 4 + [1] * 4 and list(curve["seed"]) == [1] * 4 + [2] * 4
+assert list(curve["k"]) == [0, 1, 2, 3] * 2
+
+# One vocabulary: the engine's own curve.csv of member 0, same header and the same numbers.
+job = client.job(small)
+engine_csv = pandas.read_csv(os.path.join(data_dir, job["out_dir"], "m0-seed1", "curve.csv"),
+                             float_precision="round_trip")
+assert list(engine_csv.columns) == list(gel.CURVE_COLUMNS[2:]), list(engine_csv.columns)
+member0 = curve[curve["member"] == 0].reset_index(drop=True)
+for column in engine_csv.columns:
+    if column != "snapshot":
+        assert (engine_csv[column].to_numpy() == member0[column].to_numpy()).all(), column
+
+# The same numbers as gelctl prints for the job.
+gelctl_json = json.loads(subprocess.run([gelctl, "--server", client.address, "--token-file",
+                                         os.environ["GELD_TOKEN_FILE"], "curve", small, "--json"],
+                                        check=True, capture_output=True, text=True).stdout)
+compared = {"phi": "phi [1]", "P": "P [F0/a^2]", "P_top": "P_top [F0/a^2]", "contact_number": "contact_number [1]",
+            "stored_energy": "stored_energy [F0 a]", "steps": "steps [count]", "k": "k"}
+for member, member_json in enumerate(gelctl_json["members"]):
+    table = curve[curve["member"] == member].reset_index(drop=True)
+    assert member_json["seed"] == table["seed"][0] and len(member_json["rows"]) == len(table)
+    for index, row_json in enumerate(member_json["rows"]):
+        for json_key, column in compared.items():
+            assert row_json[json_key] == table[column][index], (member, index, json_key, row_json[json_key],
+                                                                 table[column][index])
+        assert row_json["ruptures"]["normal"] == table["ruptures_normal [count]"][index]
+ensemble = client.ensemble_curve(small)
+assert list(ensemble["k"]) == [0, 1, 2, 3] and list(ensemble["n"]) == [2] * 4, ensemble
+for index, row_json in enumerate(gelctl_json["rows"]):
+    assert row_json["P"] == ensemble["P [F0/a^2]"][index] and row_json["P_std"] == ensemble["P_std [F0/a^2]"][index]
+assert math.isclose(ensemble["P [F0/a^2]"][3], curve[curve["k"] == 3]["P [F0/a^2]"].mean(), rel_tol=1e-12)
+
+arrays = client.curve_arrays(small)
+assert set(arrays) == set(gel.CURVE_COLUMNS) | {"phi_profile [1]"}, set(arrays)
+assert all(isinstance(a, numpy.ndarray) and len(a) == 8 for a in arrays.values())
+assert arrays["phi_profile [1]"].shape == (8, 20), arrays["phi_profile [1]"].shape
+assert (arrays["P [F0/a^2]"] == curve["P [F0/a^2]"].to_numpy()).all()
+print(f"ok: curve {small}: 8 rows, numeric dtypes, curve.csv's header and values, gelctl's numbers")
+
+listed = client.jobs()
+assert [j["id"] for j in listed] == [small, blocker], [j["id"] for j in listed]
+assert [j["id"] for j in client.jobs(label="suite=python")] == [small]
+assert [j["id"] for j in client.jobs(state="cancelled")] == [blocker]
+assert isinstance(listed[0]["created_unix_ms"], int) and listed[0]["particles"] == 64, listed[0]
+assert isinstance(listed[0]["scene"]["generator"]["seed"], int), listed[0]["scene"]["generator"]
+assert any(line["message"] == "member 1 finished with 4 rows" for line in client.logs(small))
+print("ok: jobs, logs, cancel")
+
+configuration = gel.read_configuration(os.path.join(work, "gel.json"))
+with open(os.path.join(work, "gel.json"), encoding="utf-8") as config_json:
+    as_written = json.load(config_json)
+for key in ("x", "y", "theta"):
+    assert configuration[key].dtype == numpy.float64 and len(configuration[key]) == 256, key
+for key in ("bond_i", "bond_j", "bond_bix", "bond_biy", "bond_bjx", "bond_bjy"):
+    assert len(configuration[key]) == 255, (key, len(configuration[key]))
+assert configuration["x"][0] == as_written["x"][0] and configuration["bond_j"][-1] == as_written["bond_j"][-1]
+assert configuration["lx"] == 60 and configuration["ly"] == 110 and configuration["periodic_y"] is True
+assert configuration["seed"] == 2 and configuration["generator"]["seed"] == 2  # int64: a string in the JSON file
+assert len(configuration["wall"]) == 0
+binary = gel.read_configuration(os.path.join(work, "gel.pb"))
+for key, value in configuration.items():
+    assert (numpy.array_equal(value, binary[key]) if isinstance(value, numpy.ndarray) else value == binary[key]), key
+snapshot = gel.read_configuration(os.path.join(data_dir, job["out_dir"], "m0-seed1", member0["snapshot"][3]))
+assert len(snapshot["x"]) == 64 and len(snapshot["wall"]) == 64 and not snapshot["periodic_y"]
+assert set(numpy.unique(snapshot["wall"])) <= {0, 1, 2} and snapshot["wall_top"] > snapshot["wall_bottom"]
+print("ok: read_configuration (.json, .pb, a job's snapshot)")
+
+for call in (client.curve, client.job, client.cancel, lambda job_id: list(client.watch(job_id))):
+    try:
+        call("job-999999")
+        raise AssertionError(f"{call} of an unknown job succeeded")
+    except gel.JobNotFoundError as error:
+        assert isinstance(error, LookupError) and error.job_id == "job-999999", error
+        assert str(error) == "NOT_FOUND: job job-999999 not found", str(error)
+try:
+    client.submit("no-such-preset")
+    raise AssertionError("an unknown preset was accepted")
+except gel.InvalidRequestError as error:
+    assert "scene.preset" in str(error), error
+print("ok: an unknown job id raises JobNotFoundError naming it; a bad preset InvalidRequestError")
+PY
+
+kill -TERM "$geld_pid"
+status=0
+wait "$geld_pid" || status=$?
+geld_pid=
+[ "$status" -eq 0 ] || fail "geld exited $status on SIGTERM"
+echo "ok: the Python package against geld on $server"
