@@ -1,4 +1,5 @@
 #include "common.hpp"
+#include "proto_json.hpp"
 
 #include <unistd.h>
 
@@ -58,11 +59,7 @@ class WatchPrinter {
   void update(const gel::v1::JobUpdate& update) {
     using Kind = gel::v1::JobUpdate;
     if (json_lines_) {
-      std::string line;
-      google::protobuf::util::JsonPrintOptions options;
-      options.preserve_proto_field_names = true;
-      (void)google::protobuf::util::MessageToJsonString(update, &line, options);
-      std::cout << line << std::endl;
+      std::cout << gel::message_to_json(update, false).dump() << std::endl;
       if (update.kind() == Kind::SNAPSHOT || update.kind() == Kind::STATE) state_ = update.job().state();
       return;
     }
@@ -303,10 +300,7 @@ json job_json(const gel::v1::Job& job) {
       j["progress"]["relax_iterations"] = progress.relax_iterations();
     }
   }
-  std::string scene;
-  google::protobuf::util::JsonPrintOptions options;
-  options.preserve_proto_field_names = true;
-  if (google::protobuf::util::MessageToJsonString(job.scene(), &scene, options).ok()) j["scene"] = json::parse(scene);
+  j["scene"] = gel::message_to_json(job.scene(), false);
   return j;
 }
 

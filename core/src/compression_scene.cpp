@@ -9,6 +9,7 @@
 #include <google/protobuf/util/json_util.h>
 
 #include "gel/compression.hpp"
+#include "proto_json.hpp"
 #include "compression_internal.hpp"
 #include "gel/errors.hpp"
 #include "gel/generator.hpp"
@@ -304,15 +305,7 @@ gel::v1::Scene scene_from_json(const std::string& json) {
   return scene;
 }
 
-std::string scene_to_json(const gel::v1::Scene& scene) {
-  std::string json;
-  google::protobuf::util::JsonPrintOptions options;
-  options.preserve_proto_field_names = true;
-  options.always_print_primitive_fields = true;
-  const auto status = google::protobuf::util::MessageToJsonString(scene, &json, options);
-  if (!status.ok()) throw std::runtime_error("cannot encode scene: " + status.ToString());
-  return json;
-}
+std::string scene_to_json(const gel::v1::Scene& scene) { return message_to_json(scene).dump(); }
 
 std::vector<double> compression_targets(double phi0, double w0, double phi_max, int steps) {
   require_fraction("phi0", phi0);

@@ -13,6 +13,7 @@
 #include <google/protobuf/util/json_util.h>
 
 #include "gel/errors.hpp"
+#include "proto_json.hpp"
 #include "gel/units.hpp"
 
 namespace gel {
@@ -215,11 +216,7 @@ void write_configuration(const Configuration& config, const std::string& path) {
   const gel::v1::Configuration message = to_proto(config);
   std::string contents;
   if (is_json_path(path)) {
-    google::protobuf::util::JsonPrintOptions options;
-    options.preserve_proto_field_names = true;
-    options.always_print_primitive_fields = true;
-    const auto status = google::protobuf::util::MessageToJsonString(message, &contents, options);
-    if (!status.ok()) throw std::runtime_error("cannot encode configuration: " + status.ToString());
+    contents = message_to_json(message).dump();
   } else {
     message.SerializeToString(&contents);
   }
