@@ -1,5 +1,5 @@
 // gelsim plot: every picture of a compression run or of an ensemble of runs.
-//   gelsim plot DIR... [--out PICDIR] [--svg] [--fit-range PHIMIN,PHIMAX] [--no-snapshots]
+//   gelsim plot DIR... [--out PICDIR] [--format png|svg|pdf] [--fit-range PHIMIN,PHIMAX] [--no-snapshots]
 // PICDIR defaults to DIR/plots of the first DIR; analysis.json (what analyze-run --json prints)
 // is written next to the pictures.
 #include <filesystem>
@@ -18,7 +18,7 @@ namespace {
 
 struct PlotOptions {
   std::vector<std::string> dirs;
-  std::string out, fit_range;
+  std::string out, fit_range, format = "png";
   bool svg = false, no_snapshots = false, no_antialias = false;
   double pixel = gel::analysis::kDefaultPixel;
   int snapshot_size = 1000;
@@ -37,7 +37,7 @@ int run_plot(const PlotOptions& o) {
   const std::string out = o.out.empty() ? (std::filesystem::path(o.dirs[0]) / "plots").string() : o.out;
   const gel::analysis::RunAnalysis run = gel::analysis::analyse_runs(o.dirs, options);
   gel::analysis::PictureOptions pictures;
-  pictures.svg = o.svg;
+  pictures.format = o.svg ? "svg" : o.format;
   pictures.snapshots = !o.no_snapshots;
   pictures.snapshot_size = o.snapshot_size;
   pictures.snapshot_antialias = !o.no_antialias;
@@ -61,7 +61,8 @@ const gelsim::Registrar plot_registrar{
       auto o = std::make_shared<PlotOptions>();
       sub.add_option("dir", o->dirs, "compression output directories (several: an ensemble)")->required();
       sub.add_option("--out", o->out, "picture folder (default DIR/plots)");
-      sub.add_flag("--svg", o->svg, "SVG instead of PNG");
+      auto* format = sub.add_option("--format", o->format, "png (default), svg or pdf")->check(CLI::IsMember({"png", "svg", "pdf"}));
+      sub.add_flag("--svg", o->svg, "the same as --format svg")->excludes(format);
       sub.add_option("--fit-range", o->fit_range, "PHIMIN,PHIMAX of the fits (default: all rows after k = 0)");
       sub.add_option("--pixel", o->pixel, "pixel size [a] of the structure analyses (default 0.25)");
       sub.add_flag("--no-snapshots", o->no_snapshots, "plots only");

@@ -481,6 +481,115 @@ TEST(Pictures, GnuplotDrawsALogLogPlot) {
   std::filesystem::remove_all(dir);
 }
 
+std::string file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+TEST(Pictures, SnapshotHasAScaleBarAndWritesPdf) {
+  // An empty periodic 40 a x 20 a box, 10 px per a (400 x 200 px): the bar (5 a, a fifth of
+  // the width rounded down to 1, 2 or 5 a) lies in the bottom-right corner.
+  Configuration c;
+  c.lx = 40, c.ly = 20;
+  const std::string dir = temp_dir("scale_bar");
+  auto dark_pixels_bottom_right = [&](bool scale_bar) {
+    SnapshotStyle style;
+    style.size = 400;
+    style.scale_bar = scale_bar;
+    render_snapshot(c, dir + "/s.png", style);
+    cairo_surface_t* image = cairo_image_surface_create_from_png((dir + "/s.png").c_str());
+    EXPECT_EQ(cairo_surface_status(image), CAIRO_STATUS_SUCCESS);
+    int dark = 0, dark_run = 0, longest_run = 0;
+    for (int y = 150; y < 200; ++y) {
+      dark_run = 0;
+      for (int x = 200; x < 400; ++x) {
+        const Pixel p = png_pixel(image, x, y);
+        const bool is_dark = p.r + p.g + p.b < 100;
+        dark += is_dark;
+        dark_run = is_dark ? dark_run + 1 : 0;
+        longest_run = std::max(longest_run, dark_run);
+      }
+    }
+    cairo_surface_destroy(image);
+    return std::pair<int, int>(dark, longest_run);
+  };
+  const auto [with_bar, bar_length] = dark_pixels_bottom_right(true);
+  EXPECT_GT(with_bar, 100);
+  EXPECT_NEAR(bar_length, 50, 2);  // 5 a at 10 px per a
+  EXPECT_EQ(dark_pixels_bottom_right(false).first, 0);
+  render_snapshot(c, dir + "/s.pdf");
+  EXPECT_EQ(file_text(dir + "/s.pdf").substr(0, 5), "%PDF-");
+  EXPECT_EQ(picture_format_of_path("A.PDF"), PictureFormat::pdf);
+  EXPECT_THROW(parse_picture_format("jpg"), InvalidArgument);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Pictures, PlotScriptIsForAPaperAndRunsWhereverItIsCopied) {
+  if (find_gnuplot().empty()) GTEST_SKIP() << "gnuplot is not installed";
+  PlotFigure f;
+  f.title = "what the figure shows";
+  f.x_label = "{/:Italic φ}";
+  f.y_label = "{/:Italic P}_y  [{/:Italic F}_0/{/:Italic a}^2]";
+  f.log_x = f.log_y = true;
+  f.width = 320, f.height = 240;
+  // Falling from the upper left: the key belongs in the upper right. The first bar reaches
+  // below zero, which a log axis cannot show: it must end at the axis' bottom.
+  f.series.push_back({"{/:Italic P}_y", {0.1, 0.2, 0.4}, {64, 8, 1}, {70, 0.5, 0.2}, "linespoints"});
+  f.series.push_back({"{/:Italic P}_y ∝ {/:Italic φ}^{−3}", {0.1, 0.4}, {64, 1}, {}, "lines", true});
+  const std::string dir = temp_dir("paper_plot");
+  render_plot(f, dir + "/p.png");
+  const std::string script = file_text(dir + "/gnuplot/p.gp");
+  EXPECT_EQ(script.find("set title"), std::string::npos);
+  EXPECT_EQ(script.find(dir), std::string::npos) << "absolute path in the kept script";
+  EXPECT_EQ(script.find("noenhanced"), std::string::npos);
+  EXPECT_NE(script.find("set key inside top right"), std::string::npos) << script;
+  EXPECT_NE(script.find("set format y \"%g\""), std::string::npos);
+  EXPECT_NE(script.find("using 1:2:3:4 with yerrorlines"), std::string::npos);
+  // The bar's lower end: at the bottom of the y range, not left out.
+  double y_lo = 0, y_hi = 0;
+  ASSERT_EQ(std::sscanf(script.c_str() + script.find("set yrange ["), "set yrange [%lf:%lf]", &y_lo, &y_hi), 2);
+  std::istringstream data(file_text(dir + "/gnuplot/p.dat"));
+  std::string line;
+  while (std::getline(data, line) && (line.empty() || line[0] == '#')) {
+  }
+  double x = 0, y = 0, low = 0, high = 0;
+  ASSERT_EQ(std::sscanf(line.c_str(), "%lf %lf %lf %lf", &x, &y, &low, &high), 4) << line;
+  EXPECT_EQ(y, 64);
+  EXPECT_EQ(low, y_lo);
+  EXPECT_GT(low, 0);
+  EXPECT_EQ(high, 134);
+
+  // The kept folder copied elsewhere redraws the picture there.
+  const std::string copy = dir + "/copied";
+  std::filesystem::create_directories(copy + "/gnuplot");
+  for (const char* name : {"p.gp", "p.dat"}) std::filesystem::copy_file(dir + "/gnuplot/" + name, copy + "/gnuplot/" + name);
+  ASSERT_EQ(std::system(("cd '" + copy + "/gnuplot' && gnuplot p.gp 2>/dev/null").c_str()), 0);
+  EXPECT_GT(std::filesystem::file_size(copy + "/p.png"), 1000u);
+
+  render_plot(f, dir + "/p.pdf");
+  EXPECT_EQ(file_text(dir + "/p.pdf").substr(0, 5), "%PDF-");
+  EXPECT_NE(file_text(dir + "/gnuplot/p_pdf.gp").find("set terminal pdfcairo"), std::string::npos);
+  EXPECT_THROW(render_plot(f, dir + "/p.jpg"), InvalidArgument);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Pictures, KeyLeavesThePlotAreaWhenDataFillEveryCorner) {
+  if (find_gnuplot().empty()) GTEST_SKIP() << "gnuplot is not installed";
+  PlotFigure f;
+  f.width = 320, f.height = 240;
+  f.series.push_back({"zigzag", {0, 1, 2, 3, 4}, {0, 1, 0, 1, 0}, {}, "lines"});
+  f.series.push_back({"zagzig", {0, 1, 2, 3, 4}, {1, 0, 1, 0, 1}, {}, "lines"});
+  const std::string dir = temp_dir("key_outside");
+  render_plot(f, dir + "/k.svg");
+  const std::string script = file_text(dir + "/gnuplot/k_svg.gp");
+  EXPECT_EQ(script.find("set key inside"), std::string::npos) << script;
+  EXPECT_NE(script.find("set key outside"), std::string::npos) << script;
+  EXPECT_NE(file_text(dir + "/k.svg").find("<svg"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Structure, AnalysisOfAGeneratedGelHasEveryPart) {
   const Configuration gel = quick_gel(1);
   const StructureAnalysis a = analyse_structure(gel);
@@ -634,6 +743,12 @@ TEST(RunAnalysis, DirectoryWithCurveAndSnapshotsGivesFitsStructureAndPictures) {
     const auto written = render_run_pictures(run, dir + "/plots", options);
     EXPECT_EQ(written.size(), 8u + 2u);  // 8 plots, 2 snapshots
     for (const auto& path : written) EXPECT_GT(std::filesystem::file_size(path), 1000u) << path;
+    options.format = "pdf";
+    options.snapshots = false;
+    for (const auto& path : render_run_pictures(run, dir + "/plots", options)) {
+      EXPECT_EQ(std::filesystem::path(path).extension(), ".pdf");
+      EXPECT_EQ(file_text(path).substr(0, 5), "%PDF-") << path;
+    }
   }
   std::filesystem::remove_all(dir);
 }

@@ -15,6 +15,25 @@ std::string format(const char* fmt, double a, double b = 0, double c = 0) {
   return buffer;
 }
 
+// Axis and key text, typeset by gnuplot's enhanced mode: symbols in italics, units in brackets.
+std::string italic(const std::string& symbol) { return "{/:Italic " + symbol + "}"; }
+const std::string kPhi = italic("φ");
+const std::string kLength = italic("a");
+
+// A number with a typeset minus sign (U+2212) instead of a hyphen.
+std::string signed_number(const char* fmt, double value) {
+  std::string text = format(fmt, value);
+  if (!text.empty() && text[0] == '-') text.replace(0, 1, "−");
+  return text;
+}
+
+// "λ" or "λ ± s" as an exponent, the uncertainty left out where there is none (two points).
+std::string exponent_text(double exponent, double stderr_) {
+  std::string text = signed_number("%.2f", exponent);
+  if (std::isfinite(stderr_) && stderr_ > 0) text += " ± " + format("%.2f", stderr_);
+  return "^{" + text + "}";
+}
+
 // Up to `count` indices spread evenly over [0, n), first and last included.
 std::vector<std::size_t> spread(std::size_t n, int count) {
   std::vector<std::size_t> picked;
@@ -37,8 +56,8 @@ void add_regime_lines(PlotFigure& figure, const RegimeSplit& regimes) {
 std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::string& out_dir,
                                              const PictureOptions& options) {
   namespace fs = std::filesystem;
+  const std::string ext = picture_extension(parse_picture_format(options.format));
   fs::create_directories(out_dir);
-  const std::string ext = options.svg ? ".svg" : ".png";
   std::vector<std::string> written;
   auto output = [&](const std::string& name) { return (fs::path(out_dir) / (name + ext)).string(); };
   auto render = [&](PlotFigure& figure, const std::string& name) {
@@ -49,31 +68,34 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
   };
   const CurveAnalysis& ca = run.curve;
   const bool ensemble = ca.ensemble.members > 1;
-  const std::string members = ensemble ? format(" (mean +- std of %.0f runs)", ca.ensemble.members) : std::string();
+  // Only in the kept scripts' first line: the caption is where a paper says it.
+  const std::string members = ensemble ? format(" (mean and standard deviation of %.0f runs)", ca.ensemble.members) : std::string();
   const auto& rows = ca.ensemble.rows;
   const std::vector<double>& phi = rows.at("phi").mean;
+  const std::string pressure = italic("P") + "_y";
 
-  {  // P_y(phi)
+  {
     PlotFigure f;
-    f.title = "Compressive yield stress" + members;
-    f.x_label = "packing fraction {/Symbol f}";
-    f.y_label = "P_y [F_0/a^2]";
+    f.title = "Compressive yield stress P_y(phi)" + members;
+    f.x_label = kPhi;
+    f.y_label = pressure + "  [" + italic("F") + "_0/" + kLength + "^2]";
     f.log_x = f.log_y = true;
-    PlotSeries data{"P_y", phi, rows.at("P").mean, ensemble ? rows.at("P").std : std::vector<double>{}, "linespoints"};
-    f.series.push_back(data);
+    f.series.push_back({pressure, phi, rows.at("P").mean, ensemble ? rows.at("P").std : std::vector<double>{}, "linespoints"});
     if (ca.power_law) {
-      PlotSeries fit{format("P = %.3g phi^%.2f (+- %.2f)", ca.power_law->prefactor, ca.power_law->exponent, ca.power_law->exponent_stderr), {}, {}, {}, "lines"};
+      const auto& p = *ca.power_law;
+      PlotSeries fit{pressure + " ∝ " + kPhi + exponent_text(p.exponent, p.exponent_stderr), {}, {}, {}, "lines", true};
       for (int i = 0; i <= 50; ++i) {
-        const double x = ca.power_law->x_min * std::pow(ca.power_law->x_max / ca.power_law->x_min, i / 50.0);
-        fit.x.push_back(x), fit.y.push_back(ca.power_law->prefactor * std::pow(x, ca.power_law->exponent));
+        const double x = p.x_min * std::pow(p.x_max / p.x_min, i / 50.0);
+        fit.x.push_back(x), fit.y.push_back(p.prefactor * std::pow(x, p.exponent));
       }
       f.series.push_back(fit);
     }
     if (ca.gel_point) {
       const auto& g = *ca.gel_point;
-      PlotSeries fit{format("P = %.3g (phi - %.3f)^%.2f", g.prefactor, g.phi_g, g.exponent) +
-                         (g.phi_g_at_bound ? " (phi_g at its bound)" : ""),
-                     {}, {}, {}, "lines"};
+      // φ_g written as its value, which keeps the key narrow enough to stay beside the data.
+      PlotSeries fit{pressure + " ∝ (" + kPhi + " − " + format("%.3f", g.phi_g) + ")" + exponent_text(g.exponent, g.exponent_stderr) +
+                         (g.phi_g_at_bound ? ", " + kPhi + "_g at its bound" : ""),
+                     {}, {}, {}, "lines", true};
       for (int i = 0; i <= 50; ++i) {
         const double x = g.x_min * std::pow(g.x_max / g.x_min, i / 50.0);
         fit.x.push_back(x), fit.y.push_back(g.prefactor * std::pow(x - g.phi_g, g.exponent));
@@ -85,18 +107,19 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
   }
   if (!run.structure.empty()) {
     PlotFigure c, d;
-    c.title = "Density correlation" + members;
-    c.x_label = "r [a]";
-    c.y_label = "C(r)";
+    c.title = "Density correlation C(r)" + members;
+    c.x_label = italic("r") + "  [" + kLength + "]";
+    c.y_label = italic("C") + "(" + italic("r") + ")";
     c.log_x = c.log_y = true;
-    c.key_position = "top right";  // C(r) falls from the upper left
-    d.title = "Fractal-dimension profile" + members;
-    d.x_label = "r [a]";
-    d.y_label = "D_f(r) = 2 + d ln C / d ln r";
+    c.ordered_series = true;
+    d.title = "Fractal-dimension profile D_f(r) = 2 + d ln C / d ln r" + members;
+    d.x_label = c.x_label;
+    d.y_label = italic("D") + "_f(" + italic("r") + ")";
     d.log_x = true;
+    d.ordered_series = true;
     for (std::size_t i : spread(run.structure.size(), options.curves_per_plot)) {
       const RowStructure& row = run.structure[i];
-      const std::string label = format("phi = %.3f", row.phi);
+      const std::string label = kPhi + format(" = %.3f", row.phi);
       std::vector<double> r(row.r_c.begin() + 1, row.r_c.end()), cc(row.c.mean.begin() + 1, row.c.mean.end());
       c.series.push_back({label, r, cc, {}, "lines"});
       d.series.push_back({label, row.r_df, row.df.mean, {}, "lines"});
@@ -105,11 +128,12 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     render(d, "fractal_dimension");
 
     PlotFigure x;
-    x.title = "Correlation length xi^(0.5)" + members;
-    x.x_label = "packing fraction {/Symbol f}";
-    x.y_label = "{/Symbol x}^{(0.5)} [a]";
+    const std::string xi_symbol = italic("ξ") + "^{(0.5)}";
+    x.title = "Correlation length xi^(0.5)(phi)" + members;
+    x.x_label = kPhi;
+    x.y_label = xi_symbol + "  [" + kLength + "]";
     x.log_x = x.log_y = true;
-    PlotSeries xi{"xi^(0.5)", {}, {}, {}, "linespoints"};
+    PlotSeries xi{xi_symbol, {}, {}, {}, "linespoints"};
     std::vector<double> xi_std;
     for (const auto& row : run.structure)
       if (row.xi_05.mean) xi.x.push_back(row.phi), xi.y.push_back(*row.xi_05.mean), xi_std.push_back(row.xi_05.std.value_or(0));
@@ -117,7 +141,7 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     x.series.push_back(xi);
     if (run.xi_power_law) {
       const auto& p = *run.xi_power_law;
-      PlotSeries fit{format("xi = %.3g phi^%.2f (+- %.2f)", p.prefactor, p.exponent, p.exponent_stderr), {}, {}, {}, "lines"};
+      PlotSeries fit{xi_symbol + " ∝ " + kPhi + exponent_text(p.exponent, p.exponent_stderr), {}, {}, {}, "lines", true};
       for (int i = 0; i <= 50; ++i) {
         const double v = p.x_min * std::pow(p.x_max / p.x_min, i / 50.0);
         fit.x.push_back(v), fit.y.push_back(p.prefactor * std::pow(v, p.exponent));
@@ -128,21 +152,21 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
   }
   {
     PlotFigure f;
-    f.title = "Mean contact number" + members;
-    f.x_label = "packing fraction {/Symbol f}";
-    f.y_label = "bonds per particle";
+    f.title = "Mean contact number z(phi)" + members;
+    f.x_label = kPhi;
+    f.y_label = "contact number " + italic("z");
     f.log_x = true;
-    f.series.push_back({"contact number", phi, rows.at("contact_number").mean,
-                        ensemble ? rows.at("contact_number").std : std::vector<double>{}, "linespoints"});
+    f.series.push_back({"", phi, rows.at("contact_number").mean, ensemble ? rows.at("contact_number").std : std::vector<double>{},
+                        "linespoints"});
     add_regime_lines(f, ca.regimes);
     render(f, "contact_number");
   }
   const auto& iv = ca.ensemble.intervals;
   {
     PlotFigure f;
-    f.title = "Energy increments" + members;
-    f.x_label = "packing fraction {/Symbol f}";
-    f.y_label = "dE / d ln {/Symbol f} [F_0 a]";
+    f.title = "Energy increments dE/d ln phi, stored and dissipated" + members;
+    f.x_label = kPhi;
+    f.y_label = std::string("d") + italic("E") + "/d ln " + kPhi + "  [" + italic("F") + "_0 " + kLength + "]";
     f.log_x = true;
     f.series.push_back({"stored", iv.at("phi_mid").mean, iv.at("stored_rate").mean,
                         ensemble ? iv.at("stored_rate").std : std::vector<double>{}, "linespoints"});
@@ -153,9 +177,9 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
   }
   {
     PlotFigure f;
-    f.title = "Rupture rates by cause" + members;
-    f.x_label = "packing fraction {/Symbol f}";
-    f.y_label = "{/Symbol G} = (1/N) dN / d ln {/Symbol f}";
+    f.title = "Rupture rates by cause, Gamma = (1/N) dN / d ln phi" + members;
+    f.x_label = kPhi;
+    f.y_label = "Γ = (1/" + italic("N") + ") d" + italic("N") + "/d ln " + kPhi;
     f.log_x = true;
     for (const char* cause : {"normal", "sliding", "rolling"}) {
       const std::string key = std::string("gamma_") + cause;
@@ -166,13 +190,14 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
   }
   if (!ca.ensemble.phi_profile.empty()) {
     PlotFigure f;
-    f.title = "Packing-fraction profile along the compression axis" + members;
-    f.x_label = "height between the walls (0 = bottom, 1 = top)";
-    f.y_label = "{/Symbol f}(y)";
+    f.title = "Packing-fraction profile phi(y) along the compression axis, y/H from the bottom wall (0) to the top (1)" + members;
+    f.x_label = "height between the walls " + italic("y") + "/" + italic("H");
+    f.y_label = kPhi + "(" + italic("y") + ")";
+    f.ordered_series = true;
     for (std::size_t k : spread(ca.ensemble.phi_profile.size(), options.curves_per_plot)) {
       const MeanStd& p = ca.ensemble.phi_profile[k];
       if (p.mean.empty()) continue;
-      PlotSeries s{format("phi = %.3f", phi[k]), {}, p.mean, ensemble ? p.std : std::vector<double>{}, "linespoints"};
+      PlotSeries s{kPhi + format(" = %.3f", phi[k]), {}, p.mean, ensemble ? p.std : std::vector<double>{}, "linespoints"};
       for (std::size_t i = 0; i < p.mean.size(); ++i) s.x.push_back((i + 0.5) / p.mean.size());
       f.series.push_back(s);
     }
@@ -193,7 +218,6 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
       for (const auto& row : run.structure)
         if (row.k == first.rows(k).k() && !row.snapshots.empty() && row.snapshots[0] == source.string())
           style.xi_circle = row.xi_05.mean;  // for one run the member's own value
-      style.title = format("k = %.0f   phi = %.3f   P = %.3g", first.rows(k).k(), first.rows(k).phi(), first.rows(k).p());
       const std::string path = (folder / format("k_%03.0f", first.rows(k).k())).string() + ext;
       render_snapshot(read_configuration(source.string()), path, style);
       written.push_back(path);

@@ -1,3 +1,4 @@
+#include <cairo-pdf.h>
 #include <cairo-svg.h>
 #include <cairo.h>
 
@@ -5,6 +6,8 @@
 #include <cmath>
 #include <memory>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "gel/analysis/pictures.hpp"
 #include "gel/errors.hpp"
@@ -12,12 +15,87 @@
 namespace gel::analysis {
 namespace {
 
-bool ends_with(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && std::equal(suffix.rbegin(), suffix.rend(), s.rbegin(),
-                                                 [](char a, char b) { return std::tolower(a) == b; });
+void set_colour(cairo_t* cr, const Rgb& c) { cairo_set_source_rgb(cr, c.r, c.g, c.b); }
+
+// The longest of 1, 2, 5, 10, 20, 50, ... a that is at most a fifth of the box width: long
+// enough to read, short enough to fit in a corner.
+double scale_bar_length(double box_width) {
+  double length = 1;
+  for (double decade = 1; decade * 1 <= box_width / 5; decade *= 10)
+    for (double mantissa : {1.0, 2.0, 5.0})
+      if (mantissa * decade <= box_width / 5) length = mantissa * decade;
+  return length;
 }
 
-void set_colour(cairo_t* cr, const Rgb& c) { cairo_set_source_rgb(cr, c.r, c.g, c.b); }
+// A scale bar with its length above it ("10 a", the unit in italics) in the corner of the
+// region between the walls that the fewest particles (and the xi circle) reach, on a white
+// backing so that it stays readable where every corner is crowded. Device units;
+// `region_top` and `region_bottom` bound the region between the walls; the xi circle, when
+// there is one, is centred in the picture with radius `circle_radius`.
+void draw_scale_bar(cairo_t* cr, const Configuration& config, double scale, double width, double height, double y0,
+                    double region_top, double region_bottom, double circle_radius) {
+  const double length = scale_bar_length(config.lx);
+  const double bar_width = length * scale;
+  const double font = std::max(10.0, 0.024 * std::max(width, height));
+  const double thickness = std::max(2.0, 0.25 * font), pad = 0.35 * font, inset = 0.5 * font;
+  char number[32];
+  std::snprintf(number, sizeof number, "%g ", length);
+  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(cr, font);
+  cairo_text_extents_t number_extents, unit_extents;
+  cairo_text_extents(cr, number, &number_extents);
+  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_ITALIC, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_text_extents(cr, "a", &unit_extents);
+  const double text_width = number_extents.x_advance + unit_extents.x_advance;
+  const double box_width = std::max(bar_width, text_width) + 2 * pad, box_height = font + 0.4 * font + thickness + 2 * pad;
+  if (box_width + 2 * inset > width || box_height + 2 * inset > region_bottom - region_top) return;
+
+  // Candidates in order of preference: the corners, then along the bottom and top edges; the
+  // first with the fewest particles under it wins.
+  const double left = inset, right = width - inset - box_width;
+  const double top = region_top + inset, bottom = region_bottom - inset - box_height;
+  std::vector<std::pair<double, double>> candidates = {{right, bottom}, {left, bottom}, {right, top}, {left, top}};
+  for (double x = right - 0.5 * box_width; x > left; x -= 0.5 * box_width) candidates.push_back({x, bottom});
+  for (double x = right - 0.5 * box_width; x > left; x -= 0.5 * box_width) candidates.push_back({x, top});
+  const double radius = scale;  // a particle's radius in device units
+  auto particles_under = [&](double bx, double by) {
+    int count = 0;
+    for (std::size_t p = 0; p < config.size(); ++p)
+      for (int image = -1; image <= 1; ++image) {
+        const double px = (config.x[p] + image * config.lx) * scale, py = height - (config.y[p] - y0) * scale;
+        const double nearest_x = std::clamp(px, bx, bx + box_width), nearest_y = std::clamp(py, by, by + box_height);
+        if (std::hypot(px - nearest_x, py - nearest_y) < radius) ++count;
+      }
+    if (circle_radius > 0) {  // the circle's line crosses the box
+      const double cx = 0.5 * width, cy = 0.5 * height;
+      const double nearest = std::hypot(cx - std::clamp(cx, bx, bx + box_width), cy - std::clamp(cy, by, by + box_height));
+      const double farthest = std::hypot(std::max(std::abs(cx - bx), std::abs(cx - bx - box_width)),
+                                         std::max(std::abs(cy - by), std::abs(cy - by - box_height)));
+      if (nearest <= circle_radius && circle_radius <= farthest) ++count;
+    }
+    return count;
+  };
+  std::pair<double, double> chosen = candidates[0];
+  int fewest = particles_under(chosen.first, chosen.second);
+  for (const auto& candidate : candidates) {
+    if (fewest == 0) break;
+    const int count = particles_under(candidate.first, candidate.second);
+    if (count < fewest) fewest = count, chosen = candidate;
+  }
+  const auto [bx, by] = chosen;
+  cairo_set_source_rgba(cr, 1, 1, 1, 0.85);
+  cairo_rectangle(cr, bx, by, box_width, box_height);
+  cairo_fill(cr);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  const double centre = bx + 0.5 * box_width;
+  cairo_rectangle(cr, centre - 0.5 * bar_width, by + box_height - pad - thickness, bar_width, thickness);
+  cairo_fill(cr);
+  cairo_move_to(cr, centre - 0.5 * text_width, by + pad + font);
+  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_show_text(cr, number);
+  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_ITALIC, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_show_text(cr, "a");
+}
 
 // Draws in configuration units: x to the right, y up, origin at the lower-left corner of the
 // region; `scale` device units per a.
@@ -86,6 +164,12 @@ void draw(cairo_t* cr, const Configuration& config, const SnapshotStyle& style, 
     cairo_stroke(cr);
   }
   cairo_restore(cr);
+  if (style.scale_bar) {
+    const double region_top = config.has_walls() ? height - (config.wall_top - y0) * scale : 0.0;
+    const double region_bottom = config.has_walls() ? height - (config.wall_bottom - y0) * scale : height;
+    const double circle_radius = style.xi_circle && *style.xi_circle > 0 ? 2.0 * *style.xi_circle * scale : 0.0;
+    draw_scale_bar(cr, config, scale, width, height, y0, region_top, region_bottom, circle_radius);
+  }
   if (!style.title.empty()) {
     // On a white label so that it stays readable over particles.
     const double font = std::max(10.0, 0.022 * std::max(width, height));
@@ -105,8 +189,8 @@ void draw(cairo_t* cr, const Configuration& config, const SnapshotStyle& style, 
 }  // namespace
 
 void render_snapshot(const Configuration& config, const std::string& path, const SnapshotStyle& style) {
-  const bool png = ends_with(path, ".png"), svg = ends_with(path, ".svg");
-  if (!png && !svg) throw InvalidArgument("out", "picture file must end in .png or .svg: " + path);
+  const PictureFormat format = picture_format_of_path(path);
+  const bool png = format == PictureFormat::png;
   if (style.size < 16 || style.size > 20000) throw InvalidArgument("size", "picture size must be 16..20000");
   const double region_height = config.height();
   if (!(config.lx > 0 && region_height > 0)) throw InvalidArgument("configuration", "box has no positive size");
@@ -117,8 +201,9 @@ void render_snapshot(const Configuration& config, const std::string& path, const
   const double scale = style.size / std::max(config.lx, shown_height);
   const int width = std::max(1, static_cast<int>(std::lround(config.lx * scale)));
   const int height = std::max(1, static_cast<int>(std::lround(shown_height * scale)));
-  cairo_surface_t* surface = png ? cairo_image_surface_create(CAIRO_FORMAT_RGB24, width, height)
-                                 : cairo_svg_surface_create(path.c_str(), width, height);
+  cairo_surface_t* surface = format == PictureFormat::svg   ? cairo_svg_surface_create(path.c_str(), width, height)
+                             : format == PictureFormat::pdf ? cairo_pdf_surface_create(path.c_str(), width, height)
+                                                            : cairo_image_surface_create(CAIRO_FORMAT_RGB24, width, height);
   std::unique_ptr<cairo_surface_t, void (*)(cairo_surface_t*)> surface_guard(surface, cairo_surface_destroy);
   if (cairo_surface_status(surface) != CAIRO_STATUS_SUCCESS)
     throw std::runtime_error("cairo cannot create '" + path + "': " + cairo_status_to_string(cairo_surface_status(surface)));

@@ -100,9 +100,9 @@ namespace gel::analysis {
 // correlation (C(r) for up to `curves_per_plot` phi_k), fractal_dimension (D_f(r), same rows),
 // xi (xi^(0.5)(phi) and its power law), contact_number, energy_increments, rupture_rates,
 // profiles (phi(y) of the recorded rows), and snapshots/k_NNN of the first member with the
-// 4 xi circle; `svg` selects SVG instead of PNG. Returns the files written.
+// 4 xi circle; `format` is png, svg or pdf (pictures.hpp). Returns the files written.
 struct PictureOptions {
-  bool svg = false;
+  std::string format = "png";
   int curves_per_plot = 6;
   bool snapshots = true;
   int snapshot_size = 1000;
