@@ -2,7 +2,7 @@
 // runs (README "Analysis and pictures"). "analyse" spellings are accepted as aliases.
 //   gelsim analyze CONFIG... [--json] [--pixel 0.25] [--fit-range 2,10] [--window 0.1]
 //   gelsim analyze-run DIR... [--json] [--fit-range PHIMIN,PHIMAX] [--no-structure] [--include-unequilibrated]
-//   gelsim snapshot CONFIG --out file.png|file.svg [--xi] [--size 1200] [--no-bonds]
+//   gelsim snapshot CONFIG --out file.png|file.svg|file.pdf [--xi] [--size 1200] [--no-bonds]
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -194,9 +194,8 @@ int run_snapshot(const SnapshotOptions& o) {
   style.size = o.size;
   style.bonds = !o.no_bonds;
   style.antialias = !o.no_antialias;
-  char title[128];
-  std::snprintf(title, sizeof title, "N = %zu   phi = %.3f", config.size(), config.packing_fraction());
-  style.title = title;
+  // No title inside the picture (the caption says what it shows); N and phi go to stderr.
+  std::cerr << "N = " << config.size() << ", phi = " << config.packing_fraction() << "\n";
   if (o.xi) {
     const auto a = gel::analysis::analyse_structure(config, structure_options(o.pixel, "", gel::analysis::kDefaultDfHalfWindow));
     style.xi_circle = a.xi_05;
@@ -212,7 +211,7 @@ const gelsim::Registrar snapshot_registrar{
     [](CLI::App& sub) -> std::function<int()> {
       auto o = std::make_shared<SnapshotOptions>();
       sub.add_option("config", o->config, "configuration file")->required();
-      sub.add_option("--out", o->out, "picture file, .png or .svg")->required();
+      sub.add_option("--out", o->out, "picture file, .png, .svg or .pdf")->required();
       sub.add_flag("--xi", o->xi, "draw a circle of diameter 4 xi^(0.5)");
       sub.add_flag("--no-bonds", o->no_bonds, "leave the bonds out");
       sub.add_flag("--no-antialias", o->no_antialias, "hard edges: a much smaller PNG");
