@@ -16,6 +16,7 @@
 
 #include "command.hpp"
 #include "common.hpp"
+#include "curve_csv.hpp"
 
 namespace {
 
@@ -59,33 +60,27 @@ void print_curve_table(const gel::v1::GetCurveResponse& curve, std::ostream& out
   }
 }
 
+// The engine's curve table (curve.csv's columns with units), one row per member and equilibrium
+// with member and seed in front; an ensemble's statistics under the same names with _std.
 void print_curve_csv(const gel::v1::GetCurveResponse& curve, std::ostream& out) {
-  // Every digit of a double, so that the CSV reproduces the stored values.
-  out << std::setprecision(17);
   if (curve.ensemble_size() > 0) {
-    out << "k,n,phi,phi_std,P,P_std,P_top,P_top_std,P_bot,P_bot_std,contact_number,contact_number_std,"
-           "stored_energy,stored_energy_std,dissipated_energy,dissipated_energy_std\n";
+    out << "k,n [count],phi [1],phi_std [1],P [F0/a^2],P_std [F0/a^2],P_top [F0/a^2],P_top_std [F0/a^2],"
+           "P_bot [F0/a^2],P_bot_std [F0/a^2],contact_number [1],contact_number_std [1],"
+           "stored_energy [F0 a],stored_energy_std [F0 a],dissipated_energy [F0 a],dissipated_energy_std [F0 a]\n";
     for (const auto& row : curve.ensemble()) {
       out << row.k() << "," << row.n();
       for (const auto* stat : {&row.phi(), &row.p(), &row.p_top(), &row.p_bot(), &row.contact_number(),
                                &row.stored_energy(), &row.dissipated_energy()}) {
-        out << "," << stat->mean() << "," << stat->std();
+        out << "," << gel::exact(stat->mean()) << "," << gel::exact(stat->std());
       }
       out << "\n";
     }
     return;
   }
-  out << "seed,k,phi,target_phi,P,P_top,P_bot,contact_number,stored_energy,dissipated_energy,breaks_normal,"
-         "sliding_resets,rolling_resets,bonds_created,equilibrated,steps,sim_time,wall_seconds\n";
-  for (const auto& member : curve.members()) {
-    for (const auto& row : member.curve().rows()) {
-      out << member.seed() << "," << row.k() << "," << row.phi() << "," << row.target_phi() << "," << row.p() << ","
-          << row.p_top() << "," << row.p_bot() << "," << row.contact_number() << "," << row.stored_energy() << ","
-          << row.dissipated_energy() << "," << row.ruptures().normal() << "," << row.ruptures().sliding() << ","
-          << row.ruptures().rolling() << "," << row.ruptures().created() << "," << (row.equilibrated() ? 1 : 0)
-          << "," << row.steps() << "," << row.sim_time() << "," << row.wall_seconds() << "\n";
-    }
-  }
+  out << "member,seed," << gel::curve_csv_header() << "\n";
+  for (const auto& member : curve.members())
+    for (const auto& row : member.curve().rows())
+      out << member.member() << "," << member.seed() << "," << gel::curve_csv_row(row) << "\n";
 }
 
 void write_out(const std::string& path, const std::string& text) {

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gel/v1/scene.pb.h"
+#include "curve_csv.hpp"  // curve_to_csv, profiles_to_csv: the one curve table
 
 namespace gel {
 
@@ -22,9 +23,6 @@ nlohmann::json curve_row_to_json(const gel::v1::CurveRow& row);
 gel::v1::CurveRow curve_row_from_json(const nlohmann::json& row);
 nlohmann::json curve_to_json(const gel::v1::Curve& curve);
 gel::v1::Curve curve_from_json(const nlohmann::json& json);  // throws InvalidArgument
-std::string curve_to_csv(const gel::v1::Curve& curve);
-// profiles.csv: "k,phi [1],slice_0 [1],..." one row per equilibrium, slices bottom to top.
-std::string profiles_to_csv(const gel::v1::Curve& curve);
 
 // DIR/curve.json, DIR/curve.csv and DIR/profiles.csv, each atomically.
 void write_curve(const gel::v1::Curve& curve, const std::string& dir);
