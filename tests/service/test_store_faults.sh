@@ -8,28 +8,9 @@
 #
 #   test_store_faults.sh BUILD_DIR
 set -euo pipefail
-if [ -z "${GEL_IN_MOUNT_NS:-}" ]; then
-  if ! unshare --mount --propagation private true 2>/dev/null; then
-    echo "SKIP: test_store_faults: cannot make a private mount namespace here (not root?)"
-    exit 77
-  fi
-  exec env GEL_IN_MOUNT_NS=1 unshare --mount --propagation private bash "$0" "$@"
-fi
-build=$(cd "$1" && pwd)
-geld=$build/server/geld
-gelctl=$build/client/gelctl
-py=/usr/bin/python3
-work=$(mktemp -d /tmp/geld-storefaults.XXXXXX)
-geld_pid=
-cleanup() {
-  if [ -n "$geld_pid" ]; then
-    kill -KILL "$geld_pid" 2>/dev/null || true
-    wait "$geld_pid" 2>/dev/null || true
-  fi
-  umount "$work/ro" 2>/dev/null || true
-  rm -rf "$work" || true
-}
-trap cleanup EXIT
+TEST_NAME=geld-storefaults
+MOUNT_NAME=ro
+source "$(dirname "$0")/mount_ns_lib.sh" "$0" "$@"
 fail() { echo "FAIL: $*" >&2; exit 1; }
 port=$($py -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1]); s.close()')
 
