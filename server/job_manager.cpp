@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <limits>
 #include <optional>
 #include <cerrno>
 #include <chrono>
@@ -28,6 +30,17 @@ std::int64_t now_ms() {
 }
 
 namespace {
+// 64-bit FNV-1a as hex: a stable key across processes and machines (std::hash is neither).
+std::string fnv1a_hex(const std::string& text) {
+  std::uint64_t hash = 1469598103934665603ULL;
+  for (const unsigned char c : text) {
+    hash ^= c;
+    hash *= 1099511628211ULL;
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(hash));
+  return hex;
+}
 
 bool is_terminal(JobState state) {
   return state == gel::v1::JOB_STATE_SUCCEEDED || state == gel::v1::JOB_STATE_FAILED ||
@@ -227,6 +240,25 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
     for (const std::uint64_t seed : request.seeds())
       prepared.parameters.emplace_back("generator.seed", std::to_string(seed), static_cast<double>(seed));
   }
+  // Run cache: the same resolved scene, seeds and program give the same bits (the engine is
+  // deterministic), so an identical submission gets the job that already has them.
+  const std::string version = engine_->program_version();
+  std::string seeds_text;
+  for (const std::uint64_t seed : request.seeds()) seeds_text += std::to_string(seed) + ",";
+  const std::string cache_key = fnv1a_hex(prepared.scene_json + "|" + seeds_text + "|" + version);
+  const double no_number = std::numeric_limits<double>::quiet_NaN();
+  prepared.parameters.emplace_back("run.cache_key", cache_key, no_number);
+  prepared.parameters.emplace_back("run.program_version", version, no_number);
+  if (!request.rerun()) {
+    if (const auto earlier = store_->find_job_by_parameter("run.cache_key", cache_key, gel::v1::JOB_STATE_SUCCEEDED)) {
+      gel::v1::SubmitJobResponse response;
+      response.set_job_id(*earlier);
+      *response.mutable_job() = get(*earlier);
+      response.set_cached(true);
+      spdlog::info("job {}: returned from the run cache (same scene, seeds and program)", *earlier);
+      return response;
+    }
+  }
 
   gel::v1::Job job;
   job.set_name(request.name());
@@ -240,6 +272,7 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
   job.set_particles(prepared.particles);
   job.set_bond_preset(prepared.bond_preset);
   job.set_created_unix_ms(now_ms());
+  job.set_program_version(version);
 
   {
     std::lock_guard lock(mutex_);

@@ -553,6 +553,10 @@ void fill_labels_and_rows(sqlite3* db, gel::v1::Job& job) {
   Stmt lab(db, "SELECT key, value FROM job_labels WHERE job_id = ?");
   lab.bind(1, job.id());
   while (lab.step()) (*job.mutable_labels())[lab.text(0)] = lab.text(1);
+  // Kept as a parameter (run.program_version), so no schema change was needed for it.
+  Stmt version(db, "SELECT value_text FROM parameters WHERE job_id = ? AND name = 'run.program_version'");
+  version.bind(1, job.id());
+  if (version.step()) job.set_program_version(version.text(0));
   Stmt cnt(db, "SELECT count(*) FROM curve_rows WHERE job_id = ?");
   cnt.bind(1, job.id());
   if (cnt.step()) job.set_rows(static_cast<int>(cnt.i64(0)));
@@ -575,6 +579,17 @@ std::optional<gel::v1::Job> Store::get_job(const std::string& id) {
   auto job = read_job_locked(id, found);
   if (!found) return std::nullopt;
   return job;
+}
+
+std::optional<std::string> Store::find_job_by_parameter(const std::string& name, const std::string& value,
+                                                        gel::v1::JobState state) {
+  std::lock_guard lock(mutex_);
+  Stmt q(db_,
+         "SELECT jobs.id FROM parameters JOIN jobs ON jobs.id = parameters.job_id "
+         "WHERE parameters.name = ? AND parameters.value_text = ? AND jobs.state = ? ORDER BY jobs.seq DESC LIMIT 1");
+  q.bind(1, name).bind(2, value).bind(3, state_name(state));
+  if (!q.step()) return std::nullopt;
+  return q.text(0);
 }
 
 std::vector<std::pair<std::int64_t, gel::v1::Job>> Store::list_jobs(const JobFilter& filter) {

@@ -108,6 +108,9 @@ class Store {
                        std::int64_t now_ms);
 
   std::optional<gel::v1::Job> get_job(const std::string& id);
+  // The newest job in `state` with the parameter name = value (the run cache's lookup).
+  std::optional<std::string> find_job_by_parameter(const std::string& name, const std::string& value,
+                                                   gel::v1::JobState state);
   // Newest first; the second value is the seq of the last job returned (for paging).
   std::vector<std::pair<std::int64_t, gel::v1::Job>> list_jobs(const JobFilter& filter);
   std::vector<std::string> job_ids_in_state(gel::v1::JobState state);  // oldest first

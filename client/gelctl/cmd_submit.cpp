@@ -19,7 +19,7 @@ struct SubmitArgs {
   std::string preset, scene_file, seeds_text, name, fidelity;
   std::vector<std::uint64_t> seed_list;
   std::vector<std::string> labels, sets;
-  bool watch = false, json_output = false;
+  bool watch = false, json_output = false, rerun = false;
 };
 
 // "1,2,5-8" -> 1 2 5 6 7 8
@@ -97,10 +97,14 @@ int run_submit(gelctl::Client& client, const SubmitArgs& args) {
     auto [key, value] = gelctl::split_label(label, "--label");
     (*request.mutable_labels())[key] = value;
   }
+  request.set_rerun(args.rerun);
   gel::v1::SubmitJobResponse response;
   auto context = client.context();
   gelctl::throw_if_failed(client.stub().SubmitJob(context.get(), request, &response));
   std::cout << response.job_id() << std::endl;
+  if (response.cached())
+    std::cerr << "gelctl: " << response.job_id() << " already ran this scene with these seeds and this program "
+              << "(run cache); --rerun runs it again\n";
   if (args.json_output && !args.watch) std::cout << gelctl::job_json(response.job()).dump(2) << std::endl;
   if (args.watch) return gelctl::watch_job(client, response.job_id(), args.json_output);
   return gelctl::kExitSuccess;
@@ -120,6 +124,7 @@ const gelctl::Registrar submit_registrar{
       sub.add_option("--fidelity", args->fidelity, "compression.fidelity: fast, default, paper, quasistatic");
       sub.add_option("--set", args->sets, "Override a scene field: dotted.name=value (repeatable)");
       sub.add_flag("--watch,-w", args->watch, "Follow the job until it ends");
+      sub.add_flag("--rerun", args->rerun, "Run even if a job with the same scene, seeds and program succeeded (run cache)");
       sub.add_flag("--json", args->json_output, "Print the job as JSON (and JSON lines while watching)");
       return [args](gelctl::Client& client) { return run_submit(client, *args); };
     }};

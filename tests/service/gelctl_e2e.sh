@@ -181,7 +181,7 @@ KILLED=(--preset quick --fidelity fast --seed 3)
 ctl submit "${KILLED[@]}" --watch >"$work/reference.txt" || fail "reference run"
 reference=$(head -n 1 "$work/reference.txt")
 ctl curve "$reference" --json >"$work/reference.json"
-victim=$(ctl submit "${KILLED[@]}")
+victim=$(ctl submit "${KILLED[@]}" --rerun)  # the reference above ran the same scene: no run cache here
 rows=0
 for _ in $(seq 1 2000); do
   rows=$(ctl status "$victim" --json | $py -c 'import json,sys; print(json.load(sys.stdin)["rows"])')

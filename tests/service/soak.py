@@ -192,6 +192,19 @@ def main():
     # Let every job end (a daemon restarted from the last kill goes on with what was queued).
     daemon.kill()
     daemon.start()
+    # A fresh channel: the old one may still hold a socket to the killed daemon.
+    channel.close()
+    stub = service_pb2_grpc.GelServiceStub(grpc.insecure_channel(f"127.0.0.1:{daemon.port}"))
+
+    def settled(call, request):
+        """One call of the checking phase, retried while the restarted daemon is not yet there."""
+        for attempt in range(40):
+            try:
+                return call(request, timeout=30, wait_for_ready=True)
+            except grpc.RpcError as error:
+                if error.code() != grpc.StatusCode.UNAVAILABLE or attempt == 39:
+                    raise
+                time.sleep(0.25)
     failures = []
     # Sanitized builds (GEL_SANITIZED=1 under ctest) run every job several times slower.
     slowdown = 4.0 if os.environ.get("GEL_SANITIZED") == "1" else 1.0
@@ -200,8 +213,7 @@ def main():
     while time.time() < finish_by:
         listed, token = {}, ""
         while True:
-            reply = stub.ListJobs(service_pb2.ListJobsRequest(page_size=1000, page_token=token), timeout=30,
-                                  wait_for_ready=True)
+            reply = settled(stub.ListJobs, service_pb2.ListJobsRequest(page_size=1000, page_token=token))
             for job in reply.jobs:
                 listed.setdefault(job.id, []).append(job)
             token = reply.next_page_token
@@ -226,7 +238,7 @@ def main():
             pass
     succeeded = [i for i, jobs in listed.items() if jobs[0].state == service_pb2.JOB_STATE_SUCCEEDED]
     for job_id in succeeded:
-        curve = stub.GetCurve(service_pb2.GetCurveRequest(job_id=job_id), timeout=30, wait_for_ready=True)
+        curve = settled(stub.GetCurve, service_pb2.GetCurveRequest(job_id=job_id))
         seeds = len(listed[job_id][0].seeds)
         if len(curve.members) != seeds:
             failures.append(f"{job_id}: {len(curve.members)} member curves for {seeds} seeds")

@@ -191,6 +191,8 @@ class Service : public ::testing::Test {
                       const std::string& name = "", std::map<std::string, std::string> labels = {}) {
     gel::v1::SubmitJobRequest request;
     request.set_scene_json(scene_json);
+    // Every test but the run cache's wants a job per submission, however alike the scenes.
+    request.set_rerun(true);
     for (auto s : seeds) request.add_seeds(s);
     request.set_name(name);
     for (const auto& [k, v] : labels) (*request.mutable_labels())[k] = v;
@@ -1389,6 +1391,7 @@ TEST_F(Service, SceneAndSceneJsonTogetherIsInvalidArgument) {
   scene->mutable_compression()->set_fidelity("fast");
   scene->mutable_compression()->set_steps(3);
   request.set_scene_json(tiny_scene_json());
+  request.set_rerun(true);  // the two accepted submissions below are the same scene
   gel::v1::SubmitJobResponse response;
   auto status = stub_->SubmitJob(ctx().get(), request, &response);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
@@ -1470,6 +1473,43 @@ TEST_F(Service, ACancelThatCannotBeStoredLeavesTheJobQueuedAndCanBeRetried) {
   EXPECT_EQ(get(busy).state(), gel::v1::JOB_STATE_SUCCEEDED);
   EXPECT_EQ(get(queued).state(), gel::v1::JOB_STATE_CANCELLED);
   EXPECT_EQ(get(queued).rows(), 0);
+}
+
+// Run cache: the same resolved scene, seeds and program return the job that succeeded with
+// them; another seed, a changed parameter or rerun make a new job; a job records its program.
+TEST_F(Service, AnIdenticalSubmissionReturnsTheJobThatAlreadySucceeded) {
+  Script& script = make_script();
+  script.rows = 2;
+  start({}, 1, scripted(script));
+  auto submit_plain = [&](const std::string& scene_json, std::vector<std::uint64_t> seeds, bool rerun) {
+    gel::v1::SubmitJobRequest request;
+    request.set_scene_json(scene_json);
+    for (auto seed : seeds) request.add_seeds(seed);
+    request.set_rerun(rerun);
+    gel::v1::SubmitJobResponse response;
+    const grpc::Status status = stub_->SubmitJob(ctx().get(), request, &response);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return response;
+  };
+  const auto first = submit_plain(tiny_scene_json(), {3, 4}, false);
+  EXPECT_FALSE(first.cached());
+  watch(first.job_id());
+  ASSERT_EQ(get(first.job_id()).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(get(first.job_id()).program_version(), gel::program_version());
+  const auto again = submit_plain(tiny_scene_json(), {3, 4}, false);
+  EXPECT_TRUE(again.cached());
+  EXPECT_EQ(again.job_id(), first.job_id());
+  EXPECT_EQ(again.job().state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 1);
+  const auto other_seeds = submit_plain(tiny_scene_json(), {3, 5}, false);
+  EXPECT_FALSE(other_seeds.cached());
+  EXPECT_NE(other_seeds.job_id(), first.job_id());
+  const auto other_scene = submit_plain(tiny_scene_json(4), {3, 4}, false);
+  EXPECT_FALSE(other_scene.cached());
+  const auto rerun = submit_plain(tiny_scene_json(), {3, 4}, true);
+  EXPECT_FALSE(rerun.cached());
+  EXPECT_NE(rerun.job_id(), first.job_id());
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 4);
 }
 
 TEST_F(Service, StoreWriteFailureIsInternalAndReadsGoOn) {

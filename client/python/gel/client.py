@@ -114,7 +114,7 @@ class Client:
         except grpc.RpcError as error:
             raise error_from_rpc(error, self.address, job_id) from None
 
-    def submit(self, scene, *, seeds=None, name="", labels=None, fidelity=None, overrides=None):
+    def submit(self, scene, *, seeds=None, name="", labels=None, fidelity=None, overrides=None, rerun=False):
         """Submit a compression job; returns its id ("job-000001").
 
         scene: a scene preset name ("quick", "paper-bond1", "paper-bond2", ...), a dict in the
@@ -126,8 +126,10 @@ class Client:
         fidelity: compression.fidelity ("fast", "default", "paper", "quasistatic").
         overrides: {"dotted.field": value} applied to the scene, as gelctl's --set
           ({"compression.steps": 3, "generator.lx": 30}).
+        rerun: run even when a job with the same resolved scene, seeds and program version
+          already succeeded; otherwise geld returns that job's id (the run cache).
         """
-        request = service_pb2.SubmitJobRequest(name=name, labels=labels or {})
+        request = service_pb2.SubmitJobRequest(name=name, labels=labels or {}, rerun=rerun)
         if seeds is not None:
             request.seeds.extend([int(seeds)] if isinstance(seeds, numbers.Integral) else [int(s) for s in seeds])
         if isinstance(scene, scene_pb2.Scene):
