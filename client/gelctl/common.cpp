@@ -1,4 +1,5 @@
 #include "common.hpp"
+#include "duration_text.hpp"
 #include "proto_json.hpp"
 
 #include <unistd.h>
@@ -243,19 +244,7 @@ std::string format_number(double value, int significant_digits) {
   return out.str();
 }
 
-std::string format_duration(double seconds) {
-  if (!(seconds >= 0) || !std::isfinite(seconds)) return "?";
-  char text[32];
-  const int whole = static_cast<int>(seconds);
-  if (seconds < 60) {
-    std::snprintf(text, sizeof text, "%.0fs", seconds);
-  } else if (seconds < 3600) {
-    std::snprintf(text, sizeof text, "%dm%02ds", whole / 60, whole % 60);
-  } else {
-    std::snprintf(text, sizeof text, "%dh%02dm", whole / 3600, (whole % 3600) / 60);
-  }
-  return text;
-}
+std::string format_duration(double seconds) { return gel::duration_text(seconds); }
 
 std::string format_unix_ms(std::int64_t unix_ms) {
   if (unix_ms <= 0) return "-";

@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
+#include "duration_text.hpp"
 #include "gel/compression.hpp"
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
@@ -162,14 +163,6 @@ nlohmann::json progress_json(const gel::v1::Progress& p) {
   return line;
 }
 
-std::string duration_text(double seconds) {
-  if (seconds < 0) return "?";
-  char buffer[32];
-  const long s = static_cast<long>(seconds);
-  std::snprintf(buffer, sizeof buffer, "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
-  return buffer;
-}
-
 std::string progress_text(const gel::v1::Progress& p) {
   // Quasi-static runs also show the relaxation converging.
   char relaxation[96] = "";
@@ -177,11 +170,11 @@ std::string progress_text(const gel::v1::Progress& p) {
     std::snprintf(relaxation, sizeof relaxation, "  residual %.2e (target %.2e) after %lld it", p.residual_force(),
                   p.residual_target(), static_cast<long long>(p.relax_iterations()));
   char buffer[320];
-  std::snprintf(buffer, sizeof buffer, "%-11s k %d/%d  phi %.4f -> %.4f  P %.3e%s  breaks %lld  resets %lld  elapsed %s  eta %s",
+  std::snprintf(buffer, sizeof buffer, "%-11s k %d/%d  phi %.4f -> %.4f  P %.3e%s  breaks %lld  resets %lld  elapsed %s  ETA %s",
                 p.phase().c_str(), p.k(), p.k_total(), p.phi(), p.target_phi(), p.p(), relaxation,
                 static_cast<long long>(p.events().normal()),
                 static_cast<long long>(p.events().sliding() + p.events().rolling()),
-                duration_text(p.elapsed_seconds()).c_str(), duration_text(p.remaining_seconds()).c_str());
+                gel::duration_text(p.elapsed_seconds()).c_str(), gel::duration_text(p.remaining_seconds()).c_str());
   return buffer;
 }
 
