@@ -15,5 +15,6 @@ GEL_BUILD_DIR=build scripts/setup.sh
 if [ "${GEL_SKIP_SANITIZERS:-0}" != "1" ]; then
   GEL_BUILD_DIR=build-asan scripts/setup.sh -DCMAKE_BUILD_TYPE=RelWithDebInfo -DGEL_SANITIZE=ON
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  export LSAN_OPTIONS="suppressions=$PWD/tests/lsan_suppressions.txt"
   (cd build-asan && GEL_SANITIZED=1 ctest --output-on-failure -j "$JOBS" --timeout 1800)
 fi

@@ -29,7 +29,10 @@ done
 sed -n '/<!-- quickstart:begin/,/<!-- quickstart:end/p' "$SOURCE/README.md" | grep '^    ' | sed 's/^    //' > "$WORK/quickstart.sh"
 [ "$(wc -l < "$WORK/quickstart.sh")" -ge 5 ] || fail "no quickstart block found in README.md"
 mkdir -p "$WORK/user"
-(cd "$WORK/user" && env -i HOME="$HOME" PATH=/usr/bin:/bin bash -euo pipefail "$WORK/quickstart.sh" > "$WORK/quickstart.log" 2>&1) \
+# The sanitizers' settings pass through (a sanitized build is tested with them).
+(cd "$WORK/user" && env -i HOME="$HOME" PATH=/usr/bin:/bin ${ASAN_OPTIONS:+ASAN_OPTIONS="$ASAN_OPTIONS"} \
+   ${LSAN_OPTIONS:+LSAN_OPTIONS="$LSAN_OPTIONS"} ${UBSAN_OPTIONS:+UBSAN_OPTIONS="$UBSAN_OPTIONS"} \
+   bash -euo pipefail "$WORK/quickstart.sh" > "$WORK/quickstart.log" 2>&1) \
   || fail "the README quickstart failed: $(tail -5 "$WORK/quickstart.log")"
 for file in gel.json run/curve.csv run/plots/pressure.png run/rows.gsd; do
   [ -s "$WORK/user/$file" ] || fail "the quickstart left no $file"
