@@ -15,6 +15,7 @@ Loopback only; every loop is bounded by the deadline. Uses Debian's python3-grpc
 project's generated stubs (BUILD_DIR/client/python). Exit status 0 only when every check holds.
 """
 import argparse
+import atexit
 import os
 import random
 import signal
@@ -106,6 +107,8 @@ def main():
     data_dir = os.path.join(work, "data")
     os.makedirs(data_dir)
     daemon = Daemon(os.path.join(args.build, "server", "geld"), data_dir, free_port())
+    # Whatever goes wrong below (an assertion, a gRPC error), no geld is left running.
+    atexit.register(lambda: daemon.process is not None and daemon.process.poll() is None and daemon.process.kill())
     daemon.start()
     channel = grpc.insecure_channel(f"127.0.0.1:{daemon.port}")
     stub = service_pb2_grpc.GelServiceStub(channel)
