@@ -89,15 +89,19 @@ std::string default_gelsim() {
   return "gelsim";
 }
 
-std::string read_token(const std::string& path) {
-  // A token others can read is no secret: refused, as ssh refuses a readable private key.
+// A secret others can read is no secret: refused, as ssh refuses a readable private key.
+void require_private_file(const std::string& option, const std::string& path) {
   struct stat info {};
-  if (::stat(path.c_str(), &info) != 0) throw std::invalid_argument("token-file: cannot read " + path);
+  if (::stat(path.c_str(), &info) != 0) throw std::invalid_argument(option + ": cannot read " + path);
   if ((info.st_mode & 077) != 0) {
     char mode[8];
     std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(info.st_mode & 07777));
-    throw std::invalid_argument("token-file: " + path + " is readable by others (mode " + mode + "); chmod 600 it");
+    throw std::invalid_argument(option + ": " + path + " is readable by others (mode " + mode + "); chmod 600 it");
   }
+}
+
+std::string read_token(const std::string& path) {
+  require_private_file("token-file", path);
   std::ifstream in(path);
   if (!in) throw std::invalid_argument("token-file: cannot read " + path);
   std::string token;
@@ -109,11 +113,9 @@ std::string read_token(const std::string& path) {
 
 // A PEM file's contents; a private key others can read is refused like a readable token.
 std::string read_pem(const std::string& option, const std::string& path, bool secret) {
-  struct stat info {};
-  if (::stat(path.c_str(), &info) != 0) throw std::invalid_argument(option + ": cannot read " + path);
-  if (secret && (info.st_mode & 077) != 0)
-    throw std::invalid_argument(option + ": " + path + " is readable by others; chmod 600 it");
+  if (secret) require_private_file(option, path);
   std::ifstream in(path);
+  if (!in) throw std::invalid_argument(option + ": cannot read " + path);
   std::stringstream contents;
   contents << in.rdbuf();
   if (!in || contents.str().find("-----BEGIN ") == std::string::npos)
