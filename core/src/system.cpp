@@ -162,12 +162,11 @@ System::System(const Configuration& config, const SimParams& params)
 // Neighbour search: a cell list builds the unbonded pairs within 2a + skin; they are the only
 // candidates for new bonds until some particle may have moved skin/2.
 
+// Positions are never wrapped back into the periodic box during a run (only the cell index
+// and the configuration written out wrap them): a wrap at each rebuild would make the rounding of
+// every later bond vector depend on when the rebuilds happen, i.e. on the skin.
 void System::rebuild_neighbours() {
   const std::size_t n = size();
-  if (periodic_x_)
-    for (double& xi : x_) xi -= lx_ * std::floor(xi / lx_);
-  if (periodic_y_)
-    for (double& yi : y_) yi -= ly_ * std::floor(yi / ly_);
   for (Bond& bond : bonds_) {
     bond.shift_x = periodic_x_ ? -lx_ * std::round((x_[bond.j] - x_[bond.i]) / lx_) : 0.0;
     bond.shift_y = periodic_y_ ? -ly_ * std::round((y_[bond.j] - y_[bond.i]) / ly_) : 0.0;
@@ -211,8 +210,10 @@ void System::rebuild_neighbours() {
   const int cells_y = std::max(1, static_cast<int>(y_span / cutoff));
   const double cell_w = x_span / cells_x, cell_h = y_span / cells_y;
   auto cell_index = [&](std::size_t i) {
-    int cx = static_cast<int>((x_[i] - x_min) / cell_w);
-    int cy = static_cast<int>((y_[i] - y_min) / cell_h);
+    const double xi = periodic_x_ ? x_[i] - lx_ * std::floor(x_[i] / lx_) : x_[i];
+    const double yi = periodic_y_ ? y_[i] - ly_ * std::floor(y_[i] / ly_) : y_[i];
+    int cx = static_cast<int>((xi - x_min) / cell_w);
+    int cy = static_cast<int>((yi - y_min) / cell_h);
     cx = std::clamp(cx, 0, cells_x - 1);
     cy = std::clamp(cy, 0, cells_y - 1);
     return cy * cells_x + cx;
@@ -315,18 +316,27 @@ void System::create_bond(std::int32_t i, std::int32_t j, double shift_x, double 
 
 void System::detect_contacts() {
   const double contact_sq = kDiameter * kDiameter;
+  touching_.clear();
   for (std::size_t c = 0; c < candidates_.size();) {
     const Candidate& pair = candidates_[c];
     const double dx = x_[pair.j] + pair.shift_x - x_[pair.i];
     const double dy = y_[pair.j] + pair.shift_y - y_[pair.i];
     if (dx * dx + dy * dy <= contact_sq) [[unlikely]] {
-      create_bond(pair.i, pair.j, pair.shift_x, pair.shift_y);
+      touching_.push_back(pair);
       candidates_[c] = candidates_.back();
       candidates_.pop_back();
     } else {
       ++c;
     }
   }
+  if (touching_.empty()) [[likely]]
+    return;
+  // The candidate list follows the cell grid, whose cells are 2a + skin wide: bonds formed in one
+  // step are appended in (i, j) order instead, so that the bond order (the order in which each
+  // particle's forces are summed) does not depend on the skin.
+  std::sort(touching_.begin(), touching_.end(),
+            [](const Candidate& a, const Candidate& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
+  for (const Candidate& pair : touching_) create_bond(pair.i, pair.j, pair.shift_x, pair.shift_y);
 }
 
 BondGeometry System::geometry(const Bond& bond) const {
@@ -603,19 +613,22 @@ void System::attach(std::int32_t i, WallSide side) {
 }
 
 void System::attach_to_walls() {
+  attaching_.clear();
   for (std::size_t c = 0; c < wall_candidates_.size();) {
     const std::int32_t i = wall_candidates_[c];
-    WallSide side = kNoWall;
-    if (y_[i] - kRadius <= wall_bottom_) side = kBottomWall;
-    else if (y_[i] + kRadius >= wall_top_) side = kTopWall;
-    if (side != kNoWall) [[unlikely]] {
-      attach(i, side);
+    if (y_[i] - kRadius <= wall_bottom_ || y_[i] + kRadius >= wall_top_) [[unlikely]] {
+      attaching_.push_back(i);
       wall_candidates_[c] = wall_candidates_.back();
       wall_candidates_.pop_back();
     } else {
       ++c;
     }
   }
+  if (attaching_.empty()) [[likely]]
+    return;
+  // In particle order, like the bonds above: the wall force is summed over wall_members_.
+  std::sort(attaching_.begin(), attaching_.end());
+  for (const std::int32_t i : attaching_) attach(i, y_[i] - kRadius <= wall_bottom_ ? kBottomWall : kTopWall);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -855,7 +868,9 @@ void System::set_wall_velocities(double v_bottom, double v_top) {
 void System::install_walls() {
   if (walls_active_) throw std::logic_error("walls are already installed");
   if (!(params_.effects & kWalls)) throw InvalidArgument("effects", "walls need the 'walls' effect");
-  rebuild_neighbours();  // wraps y into [0, L_y): bonds across the boundary carry a y shift
+  // Into the box first, so that the bonds across y = 0 are those whose shift is not 0.
+  wrap_into_box();
+  rebuild_neighbours();
   if (periodic_y_) {
     for (std::size_t b = bonds_.size(); b-- > 0;) {
       if (bonds_[b].shift_y == 0.0) continue;
@@ -959,6 +974,17 @@ void System::set_orientation(std::int32_t i, double theta) {
   forces_valid_ = false;
 }
 
+namespace {
+void wrap_into(std::vector<double>& coordinates, double length) {
+  for (double& c : coordinates) c -= length * std::floor(c / length);
+}
+}  // namespace
+
+void System::wrap_into_box() {
+  if (periodic_x_) wrap_into(x_, lx_);
+  if (periodic_y_) wrap_into(y_, ly_);
+}
+
 Configuration System::configuration() const {
   Configuration config;
   config.lx = lx_;
@@ -966,6 +992,8 @@ Configuration System::configuration() const {
   config.periodic_y = periodic_y_;
   config.x = x_;
   config.y = y_;
+  if (periodic_x_) wrap_into(config.x, lx_);
+  if (periodic_y_) wrap_into(config.y, ly_);
   config.theta.resize(size());
   for (std::size_t i = 0; i < size(); ++i) config.theta[i] = theta(i);
   config.bonds.reserve(bonds_.size());

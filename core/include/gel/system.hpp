@@ -220,6 +220,7 @@ class System {
   void dispatch_bond_forces();
   void maybe_rebuild();
   void rebuild_neighbours();
+  void wrap_into_box();
   void detect_contacts();
   void attach_to_walls();
   void impose_wall_motion();
@@ -258,6 +259,8 @@ class System {
   };
   std::vector<Candidate> candidates_;     // unbonded pairs within 2a + skin
   std::vector<std::int32_t> wall_candidates_;  // free particles within a + skin of a wall
+  std::vector<Candidate> touching_;             // scratch: the candidates that touch this step
+  std::vector<std::int32_t> attaching_;         // scratch: the free particles that reach a wall
   std::vector<double> ref_x_, ref_y_;     // positions at the last rebuild (unused: see travel_)
   double travel_ = 0;                     // bound on displacement since the last rebuild
   double wall_travel_ = 0;
