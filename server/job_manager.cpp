@@ -835,6 +835,9 @@ void JobManager::run_member(const std::shared_ptr<Live>& live, int member) {
     } catch (const gel::NoSpaceError& e) {
       outcome = Outcome::kNoSpace;
       error = e.what();
+    } catch (const gel::StabilityError& e) {
+      outcome = Outcome::kFailed;
+      error = std::string(gel::kInstabilityPrefix) + e.what();
     } catch (const std::exception& e) {
       outcome = Outcome::kFailed;
       error = e.what();

@@ -1,6 +1,8 @@
 // The Slurm executor: see slurm_executor.hpp for the protocol and the state mapping.
 #include "slurm_executor.hpp"
 
+#include "gel/errors.hpp"
+
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
@@ -252,6 +254,7 @@ ProgressLine parse_progress_line(const std::string& text) {
     const auto& error = line.contains("error") ? line.at("error") : line.value("message", nlohmann::json());
     parsed.error = error.is_string() ? error.get<std::string>() : error.dump();
     if (parsed.error.empty() || parsed.error == "null") parsed.error = "gelsim reported a failure";
+    if (line.value("kind", "") == "instability") parsed.error = gel::kInstabilityPrefix + parsed.error;
   }
   return parsed;
 }

@@ -41,7 +41,7 @@ int main(int argc, char** argv) {
     std::cerr << "gelsim: invalid argument: " << e.what() << "\n";
     return 2;
   } catch (const gel::StabilityError& e) {
-    std::cerr << "gelsim: numerical instability: " << e.what() << "\n";
+    std::cerr << "gelsim: " << gel::kInstabilityPrefix << e.what() << "\n";
     return 3;
   } catch (const std::exception& e) {
     std::cerr << "gelsim: " << e.what() << "\n";

@@ -1572,13 +1572,14 @@ TEST_F(Service, RealEngineInstabilityFailsTheJobWithTheEngineMessage) {
   const auto job = get(id);
   ASSERT_EQ(job.state(), gel::v1::JOB_STATE_FAILED);
   EXPECT_GT(job.finished_unix_ms(), 0);
-  // The job's error is the engine's own StabilityError message for this scene and seed.
+  // The job's error is the engine's own StabilityError message for this scene and seed, introduced
+  // as gelsim introduces it.
   std::string expected;
   try {
     (void)gel::run_compression(job.scene(), gel::RunOptions{});
     ADD_FAILURE() << "the scene ran without an instability";
   } catch (const gel::StabilityError& e) {
-    expected = e.what();
+    expected = std::string(gel::kInstabilityPrefix) + e.what();
   }
   ASSERT_FALSE(expected.empty());
   EXPECT_EQ(job.error(), expected);

@@ -174,7 +174,9 @@ TEST(SlurmPieces, ParsesProgressRowsAndOutcomes) {
   EXPECT_EQ(geld::slurm::parse_progress_line(R"({"type":"done"})").kind, ProgressLine::Done);
   p = geld::slurm::parse_progress_line(R"({"type":"failed","kind":"instability","error":"boom"})");
   EXPECT_EQ(p.kind, ProgressLine::Failed);
-  EXPECT_EQ(p.error, "boom");
+  EXPECT_EQ(p.error, "numerical instability: boom");  // as gelsim and the threads executor say it
+  p = geld::slurm::parse_progress_line(R"({"type":"failed","kind":"error","error":"disk on fire"})");
+  EXPECT_EQ(p.error, "disk on fire");
   EXPECT_EQ(geld::slurm::parse_progress_line(R"({"type":"log","message":"x"})").kind, ProgressLine::Other);
   EXPECT_EQ(geld::slurm::parse_progress_line(R"({"type":"stopped","out":"d","rows":2})").kind, ProgressLine::Other);
   EXPECT_THROW(geld::slurm::parse_progress_line("{\"type\":\"row\""), std::runtime_error);

@@ -24,6 +24,8 @@ class StabilityError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+// How every front end (gelsim, geld's job error, the Slurm executor) introduces its message.
+inline constexpr const char* kInstabilityPrefix = "numerical instability: ";
 
 // A file could not be written because its file system is full (ENOSPC or a quota). Nothing
 // is wrong with the run: it can go on from its last checkpoint once space is back, so callers
