@@ -104,20 +104,23 @@ gel::v1::CurveRow curve_row_from_json(const nlohmann::json& j) {
   return row;
 }
 
+std::optional<double> energy_unit_e0(const gel::v1::Scene& scene) {
+  if (!scene.has_bond()) return std::nullopt;
+  try {
+    const BondLaw law = resolve_bond_law(scene.bond());
+    if (law.k_rolling > 0) return law.m_rolling_critical * law.m_rolling_critical / (2 * law.k_rolling);
+  } catch (const InvalidArgument&) {
+  }
+  return std::nullopt;
+}
+
 nlohmann::json curve_to_json(const gel::v1::Curve& curve) {
   nlohmann::json j;
   j["program_version"] = curve.program_version();
   j["particles"] = curve.particles();
   j["parameters"] = nlohmann::json::parse(scene_to_json(curve.scene()));
-  // The model's energy unit E0 = k_R a^2 phi_c^2 / 2 = M_Rc^2 / (2 k_R a^2), in the F0 a that the
-  // rows use, so that energies can be compared with the model's (divide by it).
-  if (curve.scene().has_bond()) {
-    try {
-      const BondLaw law = resolve_bond_law(curve.scene().bond());
-      if (law.k_rolling > 0) j["E0"] = law.m_rolling_critical * law.m_rolling_critical / (2 * law.k_rolling);
-    } catch (const InvalidArgument&) {
-    }
-  }
+  // In the F0 a that the rows use, so that energies can be compared with the model's.
+  if (const auto e0 = energy_unit_e0(curve.scene())) j["E0"] = *e0;
   j["rows"] = nlohmann::json::array();
   for (const gel::v1::CurveRow& row : curve.rows()) j["rows"].push_back(curve_row_to_json(row));
   return j;

@@ -689,6 +689,29 @@ TEST(CurveJson, CarriesTheModelsEnergyUnit) {
   }
 }
 
+TEST(CurveAnalysisJson, EnergyIncrementsAlsoInTheModelsUnit) {
+  // MODEL.md gives the increments dE / d ln phi in E0 = 0.025 F0 a: each interval's rates in F0 a
+  // divided by that number (written here, not read from the code), for both bond sets.
+  for (const char* preset : {"bond1", "bond2"}) {
+    gel::v1::Curve curve = planted_curve();
+    curve.mutable_scene()->mutable_bond()->set_preset(preset);
+    const nlohmann::json j = to_json(analyse_curves({curve}, RunAnalysisOptions{}));
+    EXPECT_NEAR(j.at("E0").get<double>(), 0.025, 1e-15) << preset;
+    const auto& intervals = j.at("regimes").at("intervals");
+    ASSERT_FALSE(intervals.empty());
+    for (const auto& interval : intervals) {
+      EXPECT_NEAR(interval.at("stored_rate_E0").get<double>(), interval.at("stored_rate").get<double>() / 0.025, 1e-9);
+      EXPECT_NEAR(interval.at("dissipated_rate_E0").get<double>(), interval.at("dissipated_rate").get<double>() / 0.025, 1e-9);
+    }
+  }
+  // Without a rolling spring there is no E0: no such fields rather than a division by zero.
+  gel::v1::Curve plain = planted_curve();
+  plain.mutable_scene()->clear_bond();
+  const nlohmann::json j = to_json(analyse_curves({plain}, RunAnalysisOptions{}));
+  EXPECT_TRUE(j.at("E0").is_null());
+  for (const auto& interval : j.at("regimes").at("intervals")) EXPECT_FALSE(interval.contains("stored_rate_E0"));
+}
+
 TEST(Ensemble, ProfilesOnDifferentRadiiAreAveragedAtEqualR) {
   // Two members sample the same line C(r) = 2 + 3r on shifted radii. Element by element their
   // mean would be 3/2 too high in every bin; interpolated onto common radii it is the line

@@ -10,6 +10,7 @@
 //                        "absorbed_by_walls", "phi_profile": [...], "snapshot"}]}
 // curve.csv: one row per equilibrium, the header names every column with its unit
 // ("name [unit]"; the profile is in profiles.csv). read_curve reads curve.json.
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -22,6 +23,9 @@ namespace gel {
 nlohmann::json curve_row_to_json(const gel::v1::CurveRow& row);
 gel::v1::CurveRow curve_row_from_json(const nlohmann::json& row);
 nlohmann::json curve_to_json(const gel::v1::Curve& curve);
+// The model's energy unit E0 = k_R a^2 phi_c^2 / 2 = M_Rc^2 / (2 k_R a^2) of the scene's bond
+// law, in F0 a; none when the scene has no bond law or no rolling spring.
+std::optional<double> energy_unit_e0(const gel::v1::Scene& scene);
 gel::v1::Curve curve_from_json(const nlohmann::json& json);  // throws InvalidArgument
 
 // DIR/curve.json, DIR/curve.csv and DIR/profiles.csv, each atomically.

@@ -210,16 +210,25 @@ nlohmann::json to_json(const CurveAnalysis& a) {
         a.regimes.range[r] ? nlohmann::json::array({a.regimes.range[r]->first, a.regimes.range[r]->second}) : nlohmann::json(nullptr);
   regimes["ranges"] = ranges;
   nlohmann::json per_interval = nlohmann::json::array();
+  // The model states energy increments in its natural unit E0 (MODEL.md "Observables"): the
+  // rates are given in F0 a and, where the bond law defines E0, in E0 too.
+  const std::optional<double> e0 = energy_unit_e0(a.mean_curve.scene());
+  j["E0"] = optional_number(e0);
   // regimes.label/assigned run over the trusted increments only.
   for (std::size_t i = 0, t = 0; i < a.increments.size(); ++i) {
     const Increment& inc = a.increments[i];
     const bool trusted = a.increment_trusted[i];
-    per_interval.push_back({{"k", inc.row}, {"phi_lo", inc.phi_lo}, {"phi_hi", inc.phi_hi},
-                            {"stored_rate", inc.stored_rate}, {"dissipated_rate", inc.dissipated_rate},
-                            {"gamma_normal", inc.gamma_normal}, {"gamma_sliding", inc.gamma_sliding},
-                            {"gamma_rolling", inc.gamma_rolling}, {"trusted", trusted},
-                            {"label", trusted ? nlohmann::json(regime_name(a.regimes.label[t])) : nlohmann::json(nullptr)},
-                            {"regime", trusted ? nlohmann::json(regime_name(a.regimes.assigned[t])) : nlohmann::json(nullptr)}});
+    nlohmann::json interval = {{"k", inc.row}, {"phi_lo", inc.phi_lo}, {"phi_hi", inc.phi_hi},
+                               {"stored_rate", inc.stored_rate}, {"dissipated_rate", inc.dissipated_rate},
+                               {"gamma_normal", inc.gamma_normal}, {"gamma_sliding", inc.gamma_sliding},
+                               {"gamma_rolling", inc.gamma_rolling}, {"trusted", trusted},
+                               {"label", trusted ? nlohmann::json(regime_name(a.regimes.label[t])) : nlohmann::json(nullptr)},
+                               {"regime", trusted ? nlohmann::json(regime_name(a.regimes.assigned[t])) : nlohmann::json(nullptr)}};
+    if (e0) {
+      interval["stored_rate_E0"] = inc.stored_rate / *e0;
+      interval["dissipated_rate_E0"] = inc.dissipated_rate / *e0;
+    }
+    per_interval.push_back(std::move(interval));
     t += trusted;
   }
   regimes["intervals"] = per_interval;

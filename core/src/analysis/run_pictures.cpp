@@ -4,6 +4,7 @@
 
 #include "gel/analysis/pictures.hpp"
 #include "gel/analysis/run_analysis.hpp"
+#include "gel/curve_io.hpp"
 #include "gel/configuration.hpp"
 
 namespace gel::analysis {
@@ -166,12 +167,20 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
     PlotFigure f;
     f.title = "Energy increments dE/d ln phi, stored and dissipated" + members;
     f.x_label = kPhi;
-    f.y_label = std::string("d") + italic("E") + "/d ln " + kPhi + "  [" + italic("F") + "_0 " + kLength + "]";
+    // In the model's unit E0 where the bond law defines it (MODEL.md "Observables"), else F0 a.
+    const std::optional<double> e0 = energy_unit_e0(ca.mean_curve.scene());
+    const double unit = e0.value_or(1.0);
+    auto in_unit = [unit](std::vector<double> values) {
+      for (double& v : values) v /= unit;
+      return values;
+    };
+    f.y_label = std::string("d") + italic("E") + "/d ln " + kPhi + "  [" +
+                (e0 ? italic("E") + "_0" : italic("F") + "_0 " + kLength) + "]";
     f.log_x = true;
-    f.series.push_back({"stored", iv.at("phi_mid").mean, iv.at("stored_rate").mean,
-                        ensemble ? iv.at("stored_rate").std : std::vector<double>{}, "linespoints"});
-    f.series.push_back({"dissipated", iv.at("phi_mid").mean, iv.at("dissipated_rate").mean,
-                        ensemble ? iv.at("dissipated_rate").std : std::vector<double>{}, "linespoints"});
+    f.series.push_back({"stored", iv.at("phi_mid").mean, in_unit(iv.at("stored_rate").mean),
+                        ensemble ? in_unit(iv.at("stored_rate").std) : std::vector<double>{}, "linespoints"});
+    f.series.push_back({"dissipated", iv.at("phi_mid").mean, in_unit(iv.at("dissipated_rate").mean),
+                        ensemble ? in_unit(iv.at("dissipated_rate").std) : std::vector<double>{}, "linespoints"});
     add_regime_lines(f, ca.regimes);
     render(f, "energy_increments");
   }
