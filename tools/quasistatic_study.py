@@ -50,6 +50,8 @@ VARIANTS = {
     "quasistatic": {"fidelity": "quasistatic"},
     "paper": {"fidelity": "paper"},
     "quasistatic-walls4x": {"fidelity": "quasistatic", "wall_factor": 4},
+    # Paper walls until a relaxed row spans, then affine strain steps each relaxed by FIRE.
+    "quasistatic-walls-then-affine": {"fidelity": "quasistatic", "quasistatic_approach": "walls-then-affine"},
     # The preset as it was until 2026-12-03: walls as in "default" (adaptive up to x10, and the
     # top wall's group jumped from contact to contact until the network spans), FIRE cap 2e5.
     # Its ensembles came out 10-30 % below "paper" at phi >= 0.3.
@@ -82,6 +84,8 @@ def scene_for(gel, fidelity, seed):
         scene["compression"]["approach_shortcut"] = variant["approach_shortcut"]
     if "adaptive_wall_drag_fraction" in variant:
         scene["compression"]["adaptive_wall_drag_fraction"] = variant["adaptive_wall_drag_fraction"]
+    if "quasistatic_approach" in variant:
+        scene["compression"]["quasistatic_approach"] = variant["quasistatic_approach"]
     if "relax_max_iterations" in variant:
         scene["compression"]["relax_max_iterations"] = variant["relax_max_iterations"]
     if "wall_factor" in variant:

@@ -26,6 +26,7 @@ struct CompressionSettings {
   bool exam_all_ruptures = true;  // the third test counts resets too (MODEL.md)
   bool quasistatic = false;
   bool affine_steps = false;      // quasi-static approach: affine strain steps, not wall motion
+  bool affine_after_spanning = false;  // wall motion until a relaxed row spans, affine steps after
   double strain_step = 0;         // max d ln(phi) per affine step
   RelaxOptions relax;
   std::int64_t relax_max_iterations = 0;  // per strain step

@@ -80,7 +80,8 @@ struct CompressionState {
   double wait_start_time = 0;           // simulated time when the walls stopped
   double previous_p = 0;                // P' (P at the previous test, or at the stop)
   std::int64_t breaks_at_previous = 0;  // ruptures the third test counts, at the previous test
-  std::uint8_t spanned = 0;             // the network spans: no more approach shortcut
+  std::uint8_t spanned = 0;             // the network spans: no more approach shortcut, and
+                                        // walls-then-affine goes on in affine steps
   double wall_seconds_before = 0;       // wall-clock seconds of earlier sessions
   double wall_speed_factor = 1;         // adaptive wall: current v / v_wall
   double drag_at_control = 0;           // adaptive wall: ledger at the previous control
@@ -442,7 +443,8 @@ class CompressionRun {
   // (default) or in affine strain steps of at most strain_step in ln(phi), each relaxed; at the
   // target FIRE relaxes the network at fixed walls, and the row is that relaxed state.
   void advance_quasistatic() {
-    if (state_.phase == kMoving && !settings_.affine_steps) return advance_moving();  // ends in begin_wait()
+    const bool affine = settings_.affine_steps || (settings_.affine_after_spanning && state_.spanned);
+    if (state_.phase == kMoving && !affine) return advance_moving();  // ends in begin_wait()
     if (state_.phase == kMoving) {
       const double height = system_.wall_top() - system_.wall_bottom();
       const double target_height = height_at(target_phi());
@@ -556,6 +558,9 @@ class CompressionRun {
     row.set_bond_creation_energy(system_.energy().created);
     row.set_absorbed_by_walls(system_.energy().absorbed_by_walls);
     row.set_spans(network_spans(system_));
+    // walls-then-affine: the walls walk through the liquid while they gather the network, and
+    // once a relaxed network spans, affine strain steps take it on (in the checkpointed state).
+    if (settings_.affine_after_spanning && row.spans() && equilibrated) state_.spanned = 1;
     if (settings_.quasistatic && index > 0) {
       row.set_residual_force(state_.relax.residual);
       row.set_mean_bond_force(state_.relax.force_scale);

@@ -239,8 +239,9 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
 
   if (fidelity.quasistatic) c->set_quasistatic(true);
   if (c->quasistatic_approach().empty()) c->set_quasistatic_approach("walls");
-  if (c->quasistatic_approach() != "walls" && c->quasistatic_approach() != "affine")
-    throw InvalidArgument("compression.quasistatic_approach", "must be 'walls' or 'affine'");
+  if (c->quasistatic_approach() != "walls" && c->quasistatic_approach() != "affine" &&
+      c->quasistatic_approach() != "walls-then-affine")
+    throw InvalidArgument("compression.quasistatic_approach", "must be 'walls', 'affine' or 'walls-then-affine'");
   if (c->quasistatic_strain_step() == 0.0) c->set_quasistatic_strain_step(kDefaultStrainStep);
   require_positive("compression.quasistatic_strain_step", c->quasistatic_strain_step());
   if (c->quasistatic_strain_step() > 0.1)
@@ -344,6 +345,7 @@ CompressionSettings compression_settings(const gel::v1::Compression& c) {
   s.exam_all_ruptures = c.exam_ruptures() != "normal";
   s.quasistatic = c.quasistatic();
   s.affine_steps = c.quasistatic_approach() == "affine";
+  s.affine_after_spanning = c.quasistatic_approach() == "walls-then-affine";
   s.strain_step = c.quasistatic_strain_step();
   s.relax.force_tolerance = c.relax_force_tolerance();
   s.relax.force_floor = c.relax_force_floor();
