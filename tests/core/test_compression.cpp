@@ -600,7 +600,27 @@ TEST_P(QuasistaticApproach, RowsAreRelaxedAtTheTargets) {
 
 TEST_P(QuasistaticApproach, ResumeIsBitIdentical) { expect_resume_bit_identical(tiny_quasistatic_scene(GetParam())); }
 
-INSTANTIATE_TEST_SUITE_P(Compression, QuasistaticApproach, ::testing::Values("walls", "affine"));
+INSTANTIATE_TEST_SUITE_P(Compression, QuasistaticApproach, ::testing::Values("walls", "affine", "walls-then-affine"));
+
+TEST(Compression, WallsThenAffineFollowsTheWallsUntilARelaxedRowSpans) {
+  // The same run as "walls" up to and including the first row whose relaxed network spans (the
+  // approach is decided after that row), then affine steps, so the next row differs.
+  const CompressionResult walls = run_compression(tiny_quasistatic_scene("walls"), RunOptions{});
+  const CompressionResult hybrid = run_compression(tiny_quasistatic_scene("walls-then-affine"), RunOptions{});
+  ASSERT_TRUE(walls.finished && hybrid.finished);
+  ASSERT_EQ(walls.curve.rows_size(), hybrid.curve.rows_size());
+  int first_spanning = -1;
+  for (int k = 1; k < hybrid.curve.rows_size() && first_spanning < 0; ++k)
+    if (hybrid.curve.rows(k).spans()) first_spanning = k;
+  ASSERT_GT(first_spanning, 0);
+  ASSERT_LT(first_spanning, hybrid.curve.rows_size() - 1) << "no row left to take affine steps";
+  for (int k = 0; k <= first_spanning; ++k) {
+    EXPECT_EQ(hybrid.curve.rows(k).p(), walls.curve.rows(k).p()) << "k " << k;
+    EXPECT_EQ(hybrid.curve.rows(k).steps(), walls.curve.rows(k).steps()) << "k " << k;
+  }
+  const int next = first_spanning + 1;
+  EXPECT_NE(hybrid.curve.rows(next).steps(), walls.curve.rows(next).steps());
+}
 
 TEST(CompressionEquilibrium, ANetworkThatDoesNotSpanIsOnlyAtEquilibriumAtRest) {
   gel::v1::Scene scene = tiny_scene();
