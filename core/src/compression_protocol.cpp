@@ -39,12 +39,13 @@ constexpr std::int64_t kChunkSteps = 128;
 
 constexpr char kCheckpointFile[] = "checkpoint.bin";
 constexpr char kPreviousCheckpointFile[] = "checkpoint.prev.bin";
-// Version 2 added the adaptive wall's controller state, version 3 the quasi-static method's
-// relaxation state (and the rupture count of the third equilibrium test).
-// Version 4 ends with a 64-bit FNV-1a hash of everything after the magic: a flipped bit in the
-// stored doubles used to parse fine and resume a corrupted run. Version 3 (no hash) still reads.
-constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '4'};
-constexpr char kCheckpointMagicV3[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '3'};
+// The file is the magic, a gel.v1.Checkpoint message (proto/gel/v1/checkpoint.proto) and the
+// 64-bit FNV-1a hash of that message: a flipped bit in a stored double would otherwise parse
+// fine and resume a corrupted run. Formats 1-4 were raw little-endian struct bytes; they are
+// refused with their number, and the service then runs the member again from its seed.
+constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '5'};
+constexpr char kCheckpointMagicPrefix[7] = {'G', 'E', 'L', 'C', 'K', 'P', 'T'};
+constexpr std::uint32_t kCheckpointFormat = 5;
 
 std::uint64_t fnv1a(const char* data, std::size_t size) {
   std::uint64_t hash = 14695981039346656037ull;
@@ -89,104 +90,62 @@ struct CompressionState {
   RelaxState relax;                     // quasi-static: the relaxation of the current strain step
 };
 
-// --- Binary checkpoint pieces (explicit field by field: no padding bytes on disk) ---------
+// --- The protocol's part of the checkpoint -------------------------------------------------
 
-void put_bytes(std::string& out, const void* data, std::size_t size) {
-  out.append(static_cast<const char*>(data), size);
-}
-template <class T>
-void put(std::string& out, const T& value) {
-  static_assert(std::is_trivially_copyable_v<T>);
-  put_bytes(out, &value, sizeof(T));
-}
-void put_block(std::string& out, const std::string& block) {
-  put(out, static_cast<std::uint64_t>(block.size()));
-  out += block;
-}
-
-class ByteReader {
- public:
-  explicit ByteReader(const std::string& bytes) : bytes_(bytes) {}
-  template <class T>
-  T get() {
-    T value;
-    need(sizeof(T));
-    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return value;
-  }
-  std::string block() {
-    const auto size = get<std::uint64_t>();
-    need(size);
-    std::string out = bytes_.substr(pos_, size);
-    pos_ += size;
-    return out;
-  }
-  bool done() const { return pos_ == bytes_.size(); }
-
- private:
-  void need(std::size_t size) const {
-    if (size > bytes_.size() - pos_) throw std::runtime_error("checkpoint is truncated");
-  }
-  const std::string& bytes_;
-  std::size_t pos_ = 0;
-};
-
-std::string encode_state(const CompressionState& s) {
-  std::string out;
-  put(out, s.phi0);
-  put(out, s.k);
-  put(out, s.phase);
-  put(out, s.next_exam_step);
-  put(out, s.wait_start_time);
-  put(out, s.previous_p);
-  put(out, s.breaks_at_previous);
-  put(out, s.spanned);
-  put(out, s.wall_seconds_before);
-  put(out, s.wall_speed_factor);
-  put(out, s.drag_at_control);
-  put(out, s.wall_work_at_control);
-  put(out, s.relax.dt);
-  put(out, s.relax.dt_max);
-  put(out, s.relax.alpha);
-  put(out, s.relax.n_positive);
-  put(out, s.relax.n_negative);
-  put(out, s.relax.iterations);
-  put(out, s.relax.residual);
-  put(out, s.relax.force_scale);
-  put(out, s.relax.tolerance_factor);
-  put(out, s.relax.converged);
-  put(out, s.relax.stalled);
-  return out;
+void encode_state(const CompressionState& s, gel::v1::ProtocolState& m) {
+  m.set_phi0(s.phi0);
+  m.set_k(s.k);
+  m.set_phase(s.phase);
+  m.set_next_exam_step(s.next_exam_step);
+  m.set_wait_start_time(s.wait_start_time);
+  m.set_previous_p(s.previous_p);
+  m.set_ruptures_at_previous(s.breaks_at_previous);
+  m.set_spanned(s.spanned != 0);
+  m.set_wall_seconds_before(s.wall_seconds_before);
+  m.set_wall_speed_factor(s.wall_speed_factor);
+  m.set_drag_at_control(s.drag_at_control);
+  m.set_wall_work_at_control(s.wall_work_at_control);
+  gel::v1::RelaxState& relax = *m.mutable_relax();
+  relax.set_dt(s.relax.dt);
+  relax.set_dt_max(s.relax.dt_max);
+  relax.set_alpha(s.relax.alpha);
+  relax.set_n_positive(s.relax.n_positive);
+  relax.set_n_negative(s.relax.n_negative);
+  relax.set_iterations(s.relax.iterations);
+  relax.set_residual(s.relax.residual);
+  relax.set_force_scale(s.relax.force_scale);
+  relax.set_tolerance_factor(s.relax.tolerance_factor);
+  relax.set_converged(s.relax.converged != 0);
+  relax.set_stalled(s.relax.stalled != 0);
 }
 
-CompressionState decode_state(const std::string& bytes) {
-  ByteReader r(bytes);
+CompressionState decode_state(const gel::v1::ProtocolState& m) {
   CompressionState s;
-  s.phi0 = r.get<double>();
-  s.k = r.get<std::int32_t>();
-  s.phase = r.get<std::int32_t>();
-  s.next_exam_step = r.get<std::int64_t>();
-  s.wait_start_time = r.get<double>();
-  s.previous_p = r.get<double>();
-  s.breaks_at_previous = r.get<std::int64_t>();
-  s.spanned = r.get<std::uint8_t>();
-  s.wall_seconds_before = r.get<double>();
-  s.wall_speed_factor = r.get<double>();
-  s.drag_at_control = r.get<double>();
-  s.wall_work_at_control = r.get<double>();
-  s.relax.dt = r.get<double>();
-  s.relax.dt_max = r.get<double>();
-  s.relax.alpha = r.get<double>();
-  s.relax.n_positive = r.get<std::int64_t>();
-  s.relax.n_negative = r.get<std::int64_t>();
-  s.relax.iterations = r.get<std::int64_t>();
-  s.relax.residual = r.get<double>();
-  s.relax.force_scale = r.get<double>();
-  s.relax.tolerance_factor = r.get<double>();
-  s.relax.converged = r.get<std::uint8_t>();
-  s.relax.stalled = r.get<std::uint8_t>();
-  if (!r.done() || s.phase < kMoving || s.phase > kRelaxing) throw std::runtime_error("checkpoint protocol state is invalid");
+  s.phi0 = m.phi0();
+  s.k = m.k();
+  s.phase = m.phase();
+  s.next_exam_step = m.next_exam_step();
+  s.wait_start_time = m.wait_start_time();
+  s.previous_p = m.previous_p();
+  s.breaks_at_previous = m.ruptures_at_previous();
+  s.spanned = m.spanned() ? 1 : 0;
+  s.wall_seconds_before = m.wall_seconds_before();
+  s.wall_speed_factor = m.wall_speed_factor();
+  s.drag_at_control = m.drag_at_control();
+  s.wall_work_at_control = m.wall_work_at_control();
+  const gel::v1::RelaxState& relax = m.relax();
+  s.relax.dt = relax.dt();
+  s.relax.dt_max = relax.dt_max();
+  s.relax.alpha = relax.alpha();
+  s.relax.n_positive = relax.n_positive();
+  s.relax.n_negative = relax.n_negative();
+  s.relax.iterations = relax.iterations();
+  s.relax.residual = relax.residual();
+  s.relax.force_scale = relax.force_scale();
+  s.relax.tolerance_factor = relax.tolerance_factor();
+  s.relax.converged = relax.converged() ? 1 : 0;
+  s.relax.stalled = relax.stalled() ? 1 : 0;
+  if (s.phase < kMoving || s.phase > kRelaxing || s.k < 1) throw std::runtime_error("its protocol state is invalid");
   return s;
 }
 
@@ -587,11 +546,18 @@ class CompressionRun {
     if (options_.out_dir.empty()) return;
     CompressionState state = state_;
     state.wall_seconds_before = wall_seconds();
+    gel::v1::Checkpoint checkpoint;
+    checkpoint.set_format(kCheckpointFormat);
+    checkpoint.set_program_version(program_version());
+    *checkpoint.mutable_curve() = curve_;
+    encode_state(state, *checkpoint.mutable_protocol());
+    system_.save_state(*checkpoint.mutable_engine());
+    std::string message;
+    checkpoint.SerializeToString(&message);
+    const std::uint64_t hash = fnv1a(message.data(), message.size());
     std::string bytes(kCheckpointMagic, sizeof kCheckpointMagic);
-    put_block(bytes, curve_.SerializeAsString());
-    put_block(bytes, encode_state(state));
-    put_block(bytes, system_.save_state());
-    put(bytes, fnv1a(bytes.data() + sizeof kCheckpointMagic, bytes.size() - sizeof kCheckpointMagic));
+    bytes += message;
+    for (int byte = 0; byte < 8; ++byte) bytes.push_back(static_cast<char>((hash >> (8 * byte)) & 0xff));
     const std::string path = checkpoint_path(options_.out_dir);
     if (std::filesystem::is_regular_file(path)) std::filesystem::rename(path, previous_checkpoint_path(options_.out_dir));
     write_file_atomically(path, bytes);
@@ -758,25 +724,27 @@ struct LoadedCheckpoint {
 // Reads one checkpoint file; every problem is an InvalidArgument naming the file.
 LoadedCheckpoint load_checkpoint(const std::string& path) {
   const std::string bytes = read_file(path);
-  const bool v4 = bytes.size() >= sizeof kCheckpointMagic + sizeof(std::uint64_t) &&
-                  std::memcmp(bytes.data(), kCheckpointMagic, sizeof kCheckpointMagic) == 0;
-  const bool v3 = bytes.size() >= sizeof kCheckpointMagicV3 &&
-                  std::memcmp(bytes.data(), kCheckpointMagicV3, sizeof kCheckpointMagicV3) == 0;
-  if (!v4 && !v3) throw InvalidArgument("out_dir", "'" + path + "' is not a compression checkpoint");
-  std::string body = bytes.substr(sizeof kCheckpointMagic);
-  if (v4) {
-    std::uint64_t stored = 0;
-    std::memcpy(&stored, body.data() + body.size() - sizeof stored, sizeof stored);
-    body.resize(body.size() - sizeof stored);
-    if (fnv1a(body.data(), body.size()) != stored) throw InvalidArgument("out_dir", "'" + path + "' is corrupt (checksum mismatch)");
-  }
+  if (bytes.size() < sizeof kCheckpointMagic + 8 ||
+      std::memcmp(bytes.data(), kCheckpointMagicPrefix, sizeof kCheckpointMagicPrefix) != 0)
+    throw InvalidArgument("out_dir", "'" + path + "' is not a compression checkpoint");
+  if (bytes[sizeof kCheckpointMagicPrefix] != kCheckpointMagic[sizeof kCheckpointMagicPrefix])
+    throw InvalidArgument("out_dir", "'" + path + "' is a checkpoint of format " + std::string(1, bytes[sizeof kCheckpointMagicPrefix]) +
+                                         ", which this version (format " + std::to_string(kCheckpointFormat) + ") does not read");
+  const std::string message = bytes.substr(sizeof kCheckpointMagic, bytes.size() - sizeof kCheckpointMagic - 8);
+  std::uint64_t stored = 0;
+  for (int byte = 7; byte >= 0; --byte)
+    stored = (stored << 8) | static_cast<unsigned char>(bytes[bytes.size() - 8 + static_cast<std::size_t>(byte)]);
+  if (fnv1a(message.data(), message.size()) != stored) throw InvalidArgument("out_dir", "'" + path + "' is corrupt (checksum mismatch)");
   LoadedCheckpoint loaded;
   try {
-    ByteReader reader(body);
-    if (!loaded.curve.ParseFromString(reader.block())) throw std::runtime_error("its curve is corrupt");
-    loaded.state = decode_state(reader.block());
-    loaded.system.emplace(System::load_state(reader.block()));
-    if (!reader.done()) throw std::runtime_error("it has trailing bytes");
+    gel::v1::Checkpoint checkpoint;
+    if (!checkpoint.ParseFromString(message)) throw std::runtime_error("it does not parse");
+    if (checkpoint.format() != kCheckpointFormat)
+      throw std::runtime_error("its format is " + std::to_string(checkpoint.format()) + " (written by " +
+                               checkpoint.program_version() + "), not " + std::to_string(kCheckpointFormat));
+    loaded.curve = std::move(*checkpoint.mutable_curve());
+    loaded.state = decode_state(checkpoint.protocol());
+    loaded.system.emplace(System::load_state(checkpoint.engine()));
   } catch (const std::exception& e) {
     throw InvalidArgument("out_dir", "'" + path + "' cannot be read: " + e.what());
   }

@@ -14,6 +14,7 @@
 #include <google/protobuf/util/message_differencer.h>
 
 #include "gel/compression.hpp"
+#include "gel/v1/checkpoint.pb.h"
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
@@ -418,6 +419,79 @@ TEST(Compression, ADamagedCheckpointIsNeverResumedButThePreviousOneIs) {
   std::filesystem::remove_all(whole.out_dir);
   ASSERT_EQ(resumed.curve.rows_size(), reference.curve.rows_size());
   for (int k = 0; k < reference.curve.rows_size(); ++k) expect_same_row(reference.curve.rows(k), resumed.curve.rows(k));
+  std::filesystem::remove_all(dir);
+}
+
+// The checkpoint file: "GELCKPT5", a gel.v1.Checkpoint message, its 64-bit FNV-1a hash.
+namespace {
+std::uint64_t fnv1a_of(const std::string& bytes) {
+  std::uint64_t hash = 14695981039346656037ull;  // the published FNV-1a offset basis and prime
+  for (const char c : bytes) hash = (hash ^ static_cast<unsigned char>(c)) * 1099511628211ull;
+  return hash;
+}
+std::string checkpoint_file(const std::string& magic, const std::string& message) {
+  std::string bytes = magic + message;
+  const std::uint64_t hash = fnv1a_of(message);
+  for (int byte = 0; byte < 8; ++byte) bytes.push_back(static_cast<char>((hash >> (8 * byte)) & 0xff));
+  return bytes;
+}
+}  // namespace
+
+TEST(Compression, TheCheckpointIsAVersionedProtobufMessage) {
+  const std::string dir = temp_dir("checkpoint-message");
+  std::atomic<bool> stop{false};
+  RunOptions options;
+  options.out_dir = dir;
+  options.stop = &stop;
+  options.progress_interval_seconds = 0;
+  options.on_progress = [&](const gel::v1::Progress& p) {
+    if (p.k() >= 2) stop = true;
+  };
+  ASSERT_TRUE(run_compression(tiny_scene(), options).stopped);
+  const std::string path = dir + "/checkpoint.bin";
+  const std::string bytes = read_file(path);
+  ASSERT_GT(bytes.size(), 16u);
+  ASSERT_EQ(bytes.substr(0, 8), "GELCKPT5");
+  const std::string message = bytes.substr(8, bytes.size() - 16);
+  // Any protobuf reader can read it: the message, its format, the rows, the particles.
+  gel::v1::Checkpoint checkpoint;
+  ASSERT_TRUE(checkpoint.ParseFromString(message));
+  EXPECT_EQ(checkpoint.format(), 5u);
+  EXPECT_FALSE(checkpoint.program_version().empty());
+  EXPECT_GE(checkpoint.curve().rows_size(), 2);
+  EXPECT_EQ(checkpoint.engine().x_size(), checkpoint.curve().particles());
+  EXPECT_EQ(checkpoint.engine().bond_i_size(), checkpoint.engine().bond_bjy_size());
+  EXPECT_GE(checkpoint.protocol().k(), 2);
+  EXPECT_EQ(checkpoint_file("GELCKPT5", message), bytes) << "the hash is FNV-1a of the message, little-endian";
+
+  auto expect_refused = [&](const std::string& file, const std::string& why) {
+    write_file_atomically(path, file);
+    std::filesystem::remove(dir + "/checkpoint.prev.bin");
+    try {
+      resume_compression(options);
+      ADD_FAILURE() << "resumed from a checkpoint that should be refused (" << why << ")";
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  };
+  // An older format (raw struct bytes) is named, not misread.
+  expect_refused(checkpoint_file("GELCKPT4", message), "format 4, which this version (format 5) does not read");
+  // A well-hashed message whose lists disagree (one particle short) is refused before any step.
+  gel::v1::Checkpoint short_one = checkpoint;
+  short_one.mutable_engine()->mutable_vx()->RemoveLast();
+  expect_refused(checkpoint_file("GELCKPT5", short_one.SerializeAsString()), "inconsistent particle lists");
+  gel::v1::Checkpoint bad_bond = checkpoint;
+  ASSERT_GT(bad_bond.engine().bond_j_size(), 0);
+  bad_bond.mutable_engine()->set_bond_j(0, checkpoint.engine().x_size());
+  expect_refused(checkpoint_file("GELCKPT5", bad_bond.SerializeAsString()), "invalid bond");
+  gel::v1::Checkpoint future = checkpoint;
+  future.set_format(6);
+  expect_refused(checkpoint_file("GELCKPT5", future.SerializeAsString()), "its format is 6");
+  // Written back as it was, it resumes.
+  write_file_atomically(path, bytes);
+  stop = false;
+  options.on_progress = nullptr;
+  EXPECT_TRUE(resume_compression(options).finished);
   std::filesystem::remove_all(dir);
 }
 

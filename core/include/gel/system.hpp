@@ -13,6 +13,7 @@
 #include "gel/bond_law.hpp"
 #include "gel/configuration.hpp"
 #include "gel/effects.hpp"
+#include "gel/v1/checkpoint.pb.h"
 #include "gel/v1/scene.pb.h"
 
 namespace gel {
@@ -196,7 +197,10 @@ class System {
   void compute_forces();
 
   Configuration configuration() const;
-  // Full state, bit for bit (including neighbour list and bond order), for checkpoints.
+  // Full state, bit for bit (including neighbour list and bond order), for checkpoints: as the
+  // versioned message of proto/gel/v1/checkpoint.proto, or that message serialised.
+  void save_state(gel::v1::EngineState& state) const;
+  static System load_state(const gel::v1::EngineState& state);  // throws std::runtime_error
   std::string save_state() const;
   static System load_state(const std::string& bytes);
 
