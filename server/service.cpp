@@ -87,6 +87,45 @@ class TokenInterceptorFactory final : public grpc::experimental::ServerIntercept
   std::shared_ptr<const std::string> token_;
 };
 
+// gRPC answers a request that does not parse as its message with INTERNAL (and no message), as
+// if geld itself had failed. The sync handler never runs then, so the status is corrected here:
+// a GelService call whose request could not be deserialised (POST_RECV_MESSAGE without a
+// message) and that ends in INTERNAL ends in INVALID_ARGUMENT, naming the method.
+class MalformedRequestInterceptor final : public grpc::experimental::Interceptor {
+ public:
+  explicit MalformedRequestInterceptor(grpc::experimental::ServerRpcInfo* info) : info_(info) {}
+  void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
+    using grpc::experimental::InterceptionHookPoints;
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::POST_RECV_MESSAGE) && methods->GetRecvMessage() == nullptr)
+      malformed_ = true;
+    if (methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS) && malformed_ &&
+        methods->GetSendStatus().error_code() == grpc::StatusCode::INTERNAL) {
+      const std::string method = info_->method();
+      const std::string name = method.substr(method.rfind('/') + 1);
+      spdlog::warn("{}: request is not a valid message", method);
+      methods->ModifySendStatus(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                             "request: not a valid gel.v1." + name + "Request message"));
+    }
+    methods->Proceed();
+  }
+
+ private:
+  grpc::experimental::ServerRpcInfo* info_;
+  bool malformed_ = false;
+};
+
+class MalformedRequestInterceptorFactory final : public grpc::experimental::ServerInterceptorFactoryInterface {
+ public:
+  grpc::experimental::Interceptor* CreateServerInterceptor(grpc::experimental::ServerRpcInfo* info) override {
+    // Only geld's own service: a stream of the reflection service also ends without a message.
+    if (std::string_view(info->method()).substr(0, kServicePrefix.size()) != kServicePrefix) return nullptr;
+    return new MalformedRequestInterceptor(info);
+  }
+
+ private:
+  static constexpr std::string_view kServicePrefix = "/gel.v1.GelService/";
+};
+
 }  // namespace
 
 grpc::Status TokenCheck::check(const grpc::ServerContextBase& context) const {
@@ -214,11 +253,10 @@ void Daemon::start() {
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.AddListeningPort(options_.listen, server_credentials(options_.tls), &port_);
   builder.RegisterService(service_.get());
-  if (!options_.token.empty()) {
-    std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
-    interceptors.push_back(std::make_unique<TokenInterceptorFactory>(options_.token));
-    builder.experimental().SetInterceptorCreators(std::move(interceptors));
-  }
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(std::make_unique<MalformedRequestInterceptorFactory>());
+  if (!options_.token.empty()) interceptors.push_back(std::make_unique<TokenInterceptorFactory>(options_.token));
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   server_ = builder.BuildAndStart();
   if (!server_ || port_ == 0) {
     manager_->shutdown();

@@ -594,18 +594,17 @@ TEST_F(Service, TooManyParticlesIsResourceExhausted) {
   EXPECT_EQ(stub_->SubmitJob(ctx().get(), many, &response).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
 }
 
-// grpc.health.v1.Health/Check through a generic stub (Debian ships no health client stubs):
-// an empty request asks for the server's overall status; SERVING encodes as 08 01.
-grpc::Status health_check(const std::shared_ptr<grpc::Channel>& channel, const std::string& token, bool* serving) {
+// One unary call of `method` with the request's raw bytes, through a generic stub.
+grpc::Status raw_unary_call(const std::shared_ptr<grpc::Channel>& channel, const std::string& token, const std::string& method,
+                            const std::string& request_bytes, std::string* response_bytes) {
   grpc::GenericStub stub(channel);
   grpc::ClientContext context;
   if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
   context.set_deadline(std::chrono::system_clock::now() + 30s);
   grpc::CompletionQueue cq;
-  grpc::ByteBuffer request, response;
-  grpc::Slice empty("");
-  request = grpc::ByteBuffer(&empty, 1);
-  auto call = stub.PrepareUnaryCall(&context, "/grpc.health.v1.Health/Check", request, &cq);
+  grpc::Slice slice(request_bytes);
+  grpc::ByteBuffer request(&slice, 1), response;
+  auto call = stub.PrepareUnaryCall(&context, method, request, &cq);
   call->StartCall();
   grpc::Status status;
   call->Finish(&response, &status, reinterpret_cast<void*>(1));
@@ -613,21 +612,21 @@ grpc::Status health_check(const std::shared_ptr<grpc::Channel>& channel, const s
   bool ok = false;
   cq.Next(&tag, &ok);
   std::vector<grpc::Slice> slices;
-  std::string bytes;
+  response_bytes->clear();
   if (status.ok() && response.Dump(&slices).ok()) {
-    for (const auto& s : slices) bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+    for (const auto& s : slices) response_bytes->append(reinterpret_cast<const char*>(s.begin()), s.size());
   }
-  *serving = bytes == std::string("\x08\x01", 2);
   cq.Shutdown();
   while (cq.Next(&tag, &ok)) {
   }
   return status;
 }
 
-// grpc.health.v1.Health/Watch (server streaming) through a generic stub: the first message's
-// bytes (if one came) and the final status. With a valid token the first message says SERVING
-// and the test then cancels the stream itself.
-grpc::Status health_watch(const std::shared_ptr<grpc::Channel>& channel, const std::string& token, std::string* first) {
+// One server-streaming call of `method` with the request's raw bytes: the first message's bytes
+// (if one came) and the final status. When the first message equals `cancel_after`, the test
+// cancels the stream itself.
+grpc::Status raw_stream_call(const std::shared_ptr<grpc::Channel>& channel, const std::string& token, const std::string& method,
+                             const std::string& request_bytes, std::string* first, const std::string& cancel_after = "") {
   grpc::GenericStub stub(channel);
   grpc::ClientContext context;
   if (!token.empty()) context.AddMetadata("authorization", "Bearer " + token);
@@ -635,11 +634,11 @@ grpc::Status health_watch(const std::shared_ptr<grpc::Channel>& channel, const s
   grpc::CompletionQueue cq;
   void* tag = nullptr;
   bool ok = false;
-  auto call = stub.PrepareCall(&context, "/grpc.health.v1.Health/Watch", &cq);
+  auto call = stub.PrepareCall(&context, method, &cq);
   call->StartCall(reinterpret_cast<void*>(1));
   cq.Next(&tag, &ok);
-  grpc::Slice empty("");
-  grpc::ByteBuffer request(&empty, 1), response;
+  grpc::Slice slice(request_bytes);
+  grpc::ByteBuffer request(&slice, 1), response;
   call->WriteLast(request, grpc::WriteOptions(), reinterpret_cast<void*>(2));
   cq.Next(&tag, &ok);
   call->Read(&response, reinterpret_cast<void*>(3));
@@ -647,8 +646,8 @@ grpc::Status health_watch(const std::shared_ptr<grpc::Channel>& channel, const s
   first->clear();
   std::vector<grpc::Slice> slices;
   if (ok && response.Dump(&slices).ok())
-    for (const auto& slice : slices) first->append(reinterpret_cast<const char*>(slice.begin()), slice.size());
-  if (ok && *first == std::string("\x08\x01", 2)) context.TryCancel();
+    for (const auto& s : slices) first->append(reinterpret_cast<const char*>(s.begin()), s.size());
+  if (ok && !cancel_after.empty() && *first == cancel_after) context.TryCancel();
   grpc::Status status;
   call->Finish(&status, reinterpret_cast<void*>(4));
   cq.Next(&tag, &ok);
@@ -656,6 +655,47 @@ grpc::Status health_watch(const std::shared_ptr<grpc::Channel>& channel, const s
   while (cq.Next(&tag, &ok)) {
   }
   return status;
+}
+
+// grpc.health.v1.Health through the generic stub (Debian ships no health client stubs): an
+// empty request asks for the server's overall status; SERVING encodes as 08 01.
+const std::string kServing("\x08\x01", 2);
+
+grpc::Status health_check(const std::shared_ptr<grpc::Channel>& channel, const std::string& token, bool* serving) {
+  std::string bytes;
+  const grpc::Status status = raw_unary_call(channel, token, "/grpc.health.v1.Health/Check", "", &bytes);
+  *serving = bytes == kServing;
+  return status;
+}
+
+// Health Watch: with a valid token the first message says SERVING and the test then cancels.
+grpc::Status health_watch(const std::shared_ptr<grpc::Channel>& channel, const std::string& token, std::string* first) {
+  return raw_stream_call(channel, token, "/grpc.health.v1.Health/Watch", "", first, kServing);
+}
+
+TEST_F(Service, AMalformedRequestIsInvalidArgumentNotInternal) {
+  // A length-delimited field 1 that claims 2^31 bytes: no protobuf parser accepts it. gRPC's own
+  // answer to such a request was INTERNAL with no message, as if geld had failed.
+  start();
+  const std::string garbage("\x0a\xff\xff\xff\xff\x07", 6);
+  for (const char* method : {"SubmitJob", "GetJob", "CancelJob", "ListJobs", "GetCurve", "QueryCurves", "GetLogs"}) {
+    std::string response;
+    const grpc::Status status = raw_unary_call(channel_, "", std::string("/gel.v1.GelService/") + method, garbage, &response);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << method << ": " << status.error_message();
+    EXPECT_EQ(status.error_message(), std::string("request: not a valid gel.v1.") + method + "Request message");
+  }
+  std::string first;
+  const grpc::Status watch = raw_stream_call(channel_, "", "/gel.v1.GelService/WatchJob", garbage, &first);
+  EXPECT_EQ(watch.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << watch.error_message();
+  EXPECT_TRUE(first.empty());
+  // Nothing was stored, and well-formed calls go on being served; an empty message is a valid
+  // (all-default) request and still gets the handler's own answer.
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 0);
+  std::string response;
+  EXPECT_EQ(raw_unary_call(channel_, "", "/gel.v1.GelService/GetJob", "", &response).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(raw_unary_call(channel_, "", "/gel.v1.GelService/ListJobs", "", &response).ok());
+  std::string id;
+  ASSERT_TRUE(submit(tiny_scene_json(), &id).ok());
 }
 
 TEST_F(Service, HealthServiceAnswers) {
