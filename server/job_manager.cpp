@@ -207,6 +207,31 @@ void JobManager::job_log(const std::string& id, const std::string& level, const 
   }
 }
 
+namespace {
+// Protocol Buffers strings must be UTF-8: a job whose name or label is not would be stored, and
+// then every client that lists it would fail to parse the answer. (gRPC's own parser refuses
+// such requests; this guards the callers that build requests in C++.)
+bool valid_utf8(std::string_view text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto lead = static_cast<unsigned char>(text[i]);
+    const std::size_t length = lead < 0x80 ? 1 : (lead >> 5) == 0x6 ? 2 : (lead >> 4) == 0xe ? 3 : (lead >> 3) == 0x1e ? 4 : 0;
+    if (length == 0 || i + length > text.size()) return false;
+    std::uint32_t code = length == 1 ? lead : lead & (0x7f >> length);
+    for (std::size_t k = 1; k < length; ++k) {
+      const auto next = static_cast<unsigned char>(text[i + k]);
+      if ((next >> 6) != 0x2) return false;
+      code = (code << 6) | (next & 0x3f);
+    }
+    // Overlong forms, UTF-16 surrogates and code points past U+10FFFF are not UTF-8.
+    static constexpr std::uint32_t kSmallest[5] = {0, 0, 0x80, 0x800, 0x10000};
+    if (code < kSmallest[length] || (code >= 0xd800 && code <= 0xdfff) || code > 0x10ffff) return false;
+    i += length;
+  }
+  return true;
+}
+}  // namespace
+
 gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& request) {
   if (shutting_down_) throw unavailable();
   if (request.seeds_size() > options_.limits.max_seeds) {
@@ -233,6 +258,10 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
   if (request.name().size() > 256) {
     throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "name: longer than 256 characters");
   }
+  if (!valid_utf8(request.name())) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "name: not valid UTF-8");
+  for (const auto& [key, value] : request.labels())
+    if (!valid_utf8(key) || !valid_utf8(value)) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "labels: not valid UTF-8");
+  if (!valid_utf8(request.scene_json())) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "scene_json: not valid UTF-8");
   Engine::Prepared prepared = engine_->prepare(request, options_.limits);
   if (request.seeds_size() > 0) {
     // The members' seeds are what ran: each is queryable as generator.seed, the scene's is not.
