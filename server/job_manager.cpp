@@ -51,11 +51,28 @@ ApiError unavailable() {
   return ApiError(grpc::StatusCode::UNAVAILABLE, "geld is shutting down; retry when it is back");
 }
 
-// RAII count of active watchers.
-struct WatcherSlot {
-  std::atomic<int>& count;
-  explicit WatcherSlot(std::atomic<int>& c) : count(c) { ++count; }
-  ~WatcherSlot() { --count; }
+// One of the `limit` watcher slots, held for a stream's life. A slot is taken only when one is
+// free, in one atomic step: counting first and checking after let a burst of requests that were
+// all going to be refused push the count over the limit for a moment and refuse a request that
+// had a free slot (56 refusals with at most 100 streams open under mixed load).
+class WatcherSlot {
+ public:
+  WatcherSlot(std::atomic<int>& count, int limit) : count_(count) {
+    int current = count_.load();
+    while (current < limit && !count_.compare_exchange_weak(current, current + 1)) {
+    }
+    taken_ = current < limit;
+  }
+  ~WatcherSlot() {
+    if (taken_) --count_;
+  }
+  WatcherSlot(const WatcherSlot&) = delete;
+  WatcherSlot& operator=(const WatcherSlot&) = delete;
+  bool taken() const { return taken_; }
+
+ private:
+  std::atomic<int>& count_;
+  bool taken_ = false;
 };
 
 }  // namespace
@@ -579,8 +596,8 @@ void JobManager::watch(const std::string& id, const std::function<bool(const gel
                        const std::function<bool()>& cancelled) {
   require_id(id);
   if (shutting_down_) throw unavailable();
-  WatcherSlot slot(watchers_);
-  if (watchers_.load() > options_.limits.max_watchers) {
+  WatcherSlot slot(watchers_, options_.limits.max_watchers);
+  if (!slot.taken()) {
     throw ApiError(grpc::StatusCode::RESOURCE_EXHAUSTED,
                    "too many watchers: the limit is " + std::to_string(options_.limits.max_watchers));
   }

@@ -1220,6 +1220,58 @@ TEST_F(Service, WatchStreamsStateLogProgressAndRowUpdates) {
   }
 }
 
+TEST_F(Service, AWatcherSlotIsFreeOnlyWhenItIsFreeAndAgainWhenItsClientLeaves) {
+  // Limit 3, two streams open, eight requests at once for the one free slot: exactly one gets
+  // it. (Counting before checking let the burst push the count over the limit and refuse all.)
+  Script& script = make_script();
+  script.rows = 2;
+  script.open_rows = 0;
+  geld::Limits limits;
+  limits.max_watchers = 3;
+  start(limits, 1, scripted(script));
+  const std::string id = submit_ok(tiny_scene_json());
+  std::atomic<int> subscribed{0};
+  std::atomic<bool> leave{false};
+  std::vector<std::thread> holders;
+  std::vector<grpc::Status> holder_status(2);
+  for (int i = 0; i < 2; ++i)
+    holders.emplace_back([&, i] {
+      watch(id, &holder_status[i], [&](const JobUpdate& u) {
+        if (u.kind() == JobUpdate::SNAPSHOT) ++subscribed;
+        return true;
+      });
+    });
+  ASSERT_TRUE(wait_for([&] { return subscribed.load() == 2; }));
+  std::atomic<int> accepted{0}, refused{0};
+  std::vector<std::thread> burst;
+  std::vector<grpc::Status> burst_status(8);
+  for (int i = 0; i < 8; ++i)
+    burst.emplace_back([&, i] {
+      watch(id, &burst_status[static_cast<std::size_t>(i)], [&](const JobUpdate& u) {
+        if (u.kind() == JobUpdate::SNAPSHOT) ++accepted;
+        while (!leave.load()) std::this_thread::sleep_for(5ms);  // the winner holds its slot until told to leave
+        return false;
+      });
+      if (burst_status[static_cast<std::size_t>(i)].error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) ++refused;
+    });
+  ASSERT_TRUE(wait_for([&] { return accepted.load() + refused.load() == 8; }));
+  EXPECT_EQ(accepted.load(), 1);
+  EXPECT_EQ(refused.load(), 7);
+  EXPECT_EQ(daemon_->manager().active_watchers(), 3);
+  // The winner's client walks away while the job still runs: its slot is free again at once
+  // (the stream notices within its 200 ms poll), and a new watcher gets it.
+  leave = true;
+  ASSERT_TRUE(wait_for([&] { return daemon_->manager().active_watchers() == 2; }));
+  for (auto& t : burst) t.join();
+  grpc::Status late;
+  auto late_updates = watch(id, &late, [](const JobUpdate&) { return false; });
+  EXPECT_NE(late.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << late.error_message();
+  EXPECT_FALSE(late_updates.empty());
+  script.open();
+  for (auto& t : holders) t.join();
+  for (const auto& status : holder_status) EXPECT_TRUE(status.ok()) << status.error_message();
+}
+
 TEST_F(Service, TooManyWatchersIsResourceExhausted) {
   Script& script = make_script();
   script.rows = 2;
