@@ -6,6 +6,11 @@
 #     rows as plain dicts with numbers as numbers), cancel a running job
 #   curve() as a DataFrame: rows, dtypes, the engine's curve.csv header and values, and the
 #     same numbers as `gelctl curve --json`; curve_arrays(), ensemble_curve(), jobs(), logs()
+#   query_curves() and query_curves_frame() (QueryCurves) over two more jobs with other labels and
+#     seeds: by label, by parameter filters in gelctl's --where syntax and as tuples, by bond preset,
+#     state and limit; the same job ids as `gelctl query --json`; each job's rows with its job_id and
+#     seed and curve()'s numbers; an empty field is InvalidRequestError (INVALID_ARGUMENT) from geld,
+#     a malformed filter a ValueError before anything is sent
 #   read_configuration() of `gelsim generate` output (.json and .pb) and of a job's snapshot
 #   an unknown job id raises JobNotFoundError naming it
 #
@@ -64,6 +69,7 @@ PYTHONPATH=$source_dir/client/python GEL_PYTHON_STUBS=$stubs GELD_SERVER=$server
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 
@@ -176,6 +182,90 @@ assert isinstance(listed[0]["created_unix_ms"], int) and listed[0]["particles"] 
 assert isinstance(listed[0]["scene"]["generator"]["seed"], int), listed[0]["scene"]["generator"]
 assert any(line["message"] == "member 1 finished with 4 rows" for line in client.logs(small))
 print("ok: jobs, logs, cancel")
+
+# QueryCurves: two more jobs, other labels and seeds (queued behind each other on the one worker).
+small_overrides = {"generator.n_floc": 8, "generator.n_clusters": 8, "generator.lx": 30, "generator.ly": 50,
+                   "compression.steps": 3}
+query_a = client.submit("quick", seeds=[3], name="query-a", labels={"suite": "query", "which": "a"}, fidelity="fast",
+                        overrides=small_overrides)
+query_b = client.submit("quick", seeds=[4], name="query-b", labels={"suite": "query", "which": "b"}, fidelity="fast",
+                        overrides=small_overrides)
+assert len({small, query_a, query_b}) == 3, (small, query_a, query_b)  # not the run cache's answer
+for job_id in (query_a, query_b):
+    last = list(client.watch(job_id))[-1]
+    assert last["type"] == "state" and last["state"] == "succeeded", last
+
+def query_ids(**criteria):
+    found = client.query_curves(**criteria)
+    for job, table in found:
+        assert isinstance(job, dict) and isinstance(table, pandas.DataFrame), (type(job), type(table))
+        assert list(table.columns) == list(gel.CURVE_COLUMNS), list(table.columns)
+        assert len(table) == job["rows"] and set(table["seed"]) == set(job["seeds"]), (job, table[["member", "seed"]])
+    return [job["id"] for job, _ in found]
+
+assert query_ids(labels={"suite": "query"}) == [query_b, query_a], query_ids(labels={"suite": "query"})
+assert query_ids(labels={"suite": "query", "which": "a"}) == [query_a]
+assert query_ids(labels=["suite=query", "which=b"]) == [query_b]
+assert query_ids(labels="suite=python") == [small]
+assert query_ids(labels={"suite": "none"}) == []
+assert query_ids(where=["generator.seed=3"]) == [query_a]
+assert query_ids(where="generator.seed=4") == [query_b]
+assert query_ids(where=["generator.seed=1"]) == [small]  # any member's seed of the ensemble
+assert query_ids(where=["generator.seed>=3"]) == [query_b, query_a]
+assert query_ids(where=[("generator.seed", "<=", 3)]) == [query_a, small]
+assert query_ids(where=["generator.seed>=2", ("generator.seed", "<=", 3)]) == [query_a, small]
+assert query_ids(where=[("generator.lx", "=", 30)]) == [query_b, query_a, small]
+assert query_ids(where=["generator.lx>=30.5"]) == []
+assert query_ids(where=[("compression.fidelity", "==", "fast")], labels={"which": "b"}) == [query_b]
+assert query_ids(where=["no.such.field=1"]) == []
+assert query_ids(bond_preset="bond1", labels={"suite": "query"}) == [query_b, query_a]
+assert query_ids(bond_preset="bond2") == []
+assert query_ids(limit=2) == [query_b, query_a] and query_ids(limit=1, where=["generator.seed<=3"]) == [query_a]
+assert query_ids(state="cancelled") == [blocker]
+# gelctl query with the same filters chooses the same jobs.
+for gelctl_options, criteria, expected in (
+        (["--label", "suite=query", "--where", "generator.seed>=3"],
+         {"labels": {"suite": "query"}, "where": ["generator.seed>=3"]}, [query_b, query_a]),
+        (["--where", "generator.seed<=3"], {"where": ["generator.seed<=3"]}, [query_a, small])):
+    lines = subprocess.run([gelctl, "--server", client.address, "--token-file", os.environ["GELD_TOKEN_FILE"],
+                            "query", "--json", *gelctl_options], check=True, capture_output=True, text=True).stdout
+    gelctl_ids = [json.loads(line)["job_id"] for line in lines.splitlines() if line.strip()]
+    assert gelctl_ids == query_ids(**criteria) == expected, (gelctl_options, gelctl_ids, expected)
+
+frame = client.query_curves_frame(labels={"suite": "query"})
+assert list(frame.columns) == ["job_id"] + list(gel.CURVE_COLUMNS), list(frame.columns)
+assert len(frame) == 8 and list(frame["job_id"]) == [query_b] * 4 + [query_a] * 4, list(frame["job_id"])
+assert list(frame["seed"]) == [4] * 4 + [3] * 4 and list(frame["k"]) == [0, 1, 2, 3] * 2, list(frame["seed"])
+assert pandas.api.types.is_integer_dtype(frame["seed"]) and pandas.api.types.is_float_dtype(frame["P [F0/a^2]"])
+for job_id in (query_a, query_b):
+    own = frame[frame["job_id"] == job_id].drop(columns="job_id").reset_index(drop=True)
+    pandas.testing.assert_frame_equal(own, client.curve(job_id))
+both = client.query_curves_frame(where=["generator.seed<=3"])
+assert list(both["job_id"]) == [query_a] * 4 + [small] * 8 and list(both["seed"]) == [3] * 4 + [1] * 4 + [2] * 4
+assert list(both["member"]) == [0] * 8 + [1] * 4, list(both["member"])
+none = client.query_curves_frame(bond_preset="bond2")
+assert len(none) == 0 and list(none.columns) == list(gel.JOB_CURVE_COLUMNS), none
+assert none["seed"].dtype == frame["seed"].dtype and none["P [F0/a^2]"].dtype == frame["P [F0/a^2]"].dtype
+
+for refused, criteria in ((r"parameters\[0\]\.field", {"where": ["=1"]}),
+                          (r"parameters\[1\]\.field", {"where": ["generator.seed=1", ("", "<=", 2)]}),
+                          (r"limit", {"limit": -1})):
+    for call in (client.query_curves, client.query_curves_frame):
+        try:
+            call(**criteria)
+            raise AssertionError(f"{call.__name__}({criteria}) was accepted")
+        except gel.InvalidRequestError as error:
+            assert error.code == "INVALID_ARGUMENT" and isinstance(error, ValueError), error
+            assert re.match(refused, error.details), error.details
+for malformed in ("generator.seed", "generator.lx>=thirty", "generator.lx<=inf", ("generator.lx", ">", 1),
+                  ("generator.lx", ">=", "x")):
+    try:
+        client.query_curves(where=[malformed])
+        raise AssertionError(f"where={malformed!r} was accepted")
+    except ValueError as error:
+        assert not isinstance(error, gel.GelError) and "query_curves: where" in str(error), error
+print(f"ok: query_curves {query_a} {query_b}: labels, --where filters, bond preset, state, limit, gelctl's ids, "
+      "one DataFrame with job_id; INVALID_ARGUMENT from geld, ValueError for a malformed filter")
 
 configuration = gel.read_configuration(os.path.join(work, "gel.json"))
 with open(os.path.join(work, "gel.json"), encoding="utf-8") as config_json:

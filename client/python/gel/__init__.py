@@ -7,6 +7,9 @@
         if update["type"] == "progress":
             print(update["k"], update["phi"], update["P"])
     curve = client.curve(job_id)                       # pandas.DataFrame, curve.csv's columns
+    for job, curve in client.query_curves(labels={"study": "demo"}, where=["generator.seed>=2"]):
+        print(job["id"], len(curve))                   # many jobs' curves: bond preset, labels, scene fields
+    table = client.query_curves_frame(where=[("generator.lx", ">=", 30)])  # one DataFrame, job_id column
     config = gel.read_configuration("gel.json")        # numpy arrays: x, y, theta, bond_i, ...
 
 Units are the engine's (docs/model.md): lengths in particle radii a, forces in F0, stresses in
@@ -56,7 +59,7 @@ __path__ = _stub_search_path(__path__)
 from .errors import GelError, InvalidRequestError, JobNotFoundError  # noqa: E402
 from .client import Client, connect  # noqa: E402
 from .configuration import read_configuration  # noqa: E402
-from .curves import CURVE_COLUMNS  # noqa: E402
+from .curves import CURVE_COLUMNS, JOB_CURVE_COLUMNS  # noqa: E402
 
-__all__ = ["connect", "Client", "read_configuration", "CURVE_COLUMNS", "GelError", "JobNotFoundError",
-           "InvalidRequestError"]
+__all__ = ["connect", "Client", "read_configuration", "CURVE_COLUMNS", "JOB_CURVE_COLUMNS", "GelError",
+           "JobNotFoundError", "InvalidRequestError"]

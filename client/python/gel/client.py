@@ -1,6 +1,7 @@
-"""A connection to geld: submit, follow, list and cancel jobs, fetch their curves."""
+"""A connection to geld: submit, follow, list and cancel jobs, fetch their curves, query the curves of many."""
 import copy
 import json
+import math
 import numbers
 import os
 
@@ -84,6 +85,77 @@ def _set_dotted(scene, dotted_name, value):
             node[key] = {}
         node = node[key]
     node[leaf] = value
+
+
+# QueryCurves' parameter filters: gelctl query --where's operators (client/gelctl/cmd_query.cpp),
+# looked for in its order, and the ParameterFilter field each one sets.
+_WHERE_OPERATORS = ((">=", "min"), ("<=", "max"), ("=", "equals"))
+
+
+def _where_bound(where, text):
+    # As gelctl's where_bound: the whole text a finite number, else bad input naming the filter.
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        value = None
+    if value is None or isinstance(text, bool) or not math.isfinite(value):
+        raise ValueError(f"query_curves: where {where!r}: {text!r} is not a number")
+    return value
+
+
+def _where_equals_text(value):
+    # geld compares `equals` with the resolved scene's field as text, or as a number when the text
+    # is one; booleans are stored as "true"/"false" (server/compression_engine.cpp, flatten).
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        return repr(float(value))
+    if isinstance(value, str):
+        return value
+    raise TypeError(f"query_curves: where: {value!r} ({type(value).__name__}) is not a string or number")
+
+
+def _parameter_filter(where):
+    """One `where` item -> gel.v1.ParameterFilter (see Client.query_curves)."""
+    if isinstance(where, service_pb2.ParameterFilter):
+        return where
+    if isinstance(where, str):
+        for operator, _ in _WHERE_OPERATORS:
+            field, found, text = where.partition(operator)
+            if found:
+                break
+        else:
+            raise ValueError(f"query_curves: where {where!r} is not field=value, field>=x or field<=x")
+    elif isinstance(where, (tuple, list)) and len(where) == 3:
+        field, operator, text = where
+        operator = "=" if operator == "==" else operator
+        if not isinstance(field, str) or operator not in {op for op, _ in _WHERE_OPERATORS}:
+            raise ValueError(f"query_curves: where {where!r} is not (field, op, value) with op '=', '>=' or '<='")
+    else:
+        raise TypeError(f"query_curves: where {where!r} is not \"field=value\", \"field>=x\", \"field<=x\", "
+                        "(field, op, value) or a gel.v1.ParameterFilter")
+    request_field = dict(_WHERE_OPERATORS)[operator]
+    if request_field == "equals":
+        # An empty field goes to geld as it is: geld names it (INVALID_ARGUMENT parameters[i].field).
+        return service_pb2.ParameterFilter(field=field, equals=_where_equals_text(text))
+    return service_pb2.ParameterFilter(field=field, **{request_field: _where_bound(where, text)})
+
+
+def _query_labels(labels):
+    # {key: value}, or gelctl's --label form: "key=value" or a list of them.
+    if labels is None:
+        return {}
+    if isinstance(labels, dict):
+        return {str(key): str(value) for key, value in labels.items()}
+    plain = {}
+    for label in [labels] if isinstance(labels, str) else labels:
+        key, found, value = label.partition("=")
+        if not found or not key:
+            raise ValueError(f"query_curves: label {label!r} is not key=value")
+        plain[key] = value
+    return plain
 
 
 class Client:
@@ -209,6 +281,59 @@ class Client:
         (members that reached phi_k), "phi [1]", "phi_std [1]", "P [F0/a^2]", "P_std [F0/a^2]", ...
         Empty for a single-seed job."""
         return curves.ensemble_frame(self._curve(job_id))
+
+    def _query(self, bond_preset, labels, where, state, limit):
+        if isinstance(where, (str, tuple, service_pb2.ParameterFilter)):
+            where = [where]  # one filter; a list of 3 items stays a list of filters
+        request = service_pb2.QueryCurvesRequest(
+            bond_preset=bond_preset or "", labels=_query_labels(labels),
+            parameters=[_parameter_filter(item) for item in where or ()])
+        if state:
+            if state not in _STATE_NAMES:
+                raise ValueError(f"query_curves: unknown state {state!r} ({', '.join(_STATE_NAMES)})")
+            request.state = service_pb2.JobState.Value("JOB_STATE_" + state.upper())
+        if limit is not None:
+            if isinstance(limit, bool) or not isinstance(limit, numbers.Integral):
+                raise TypeError(f"query_curves: limit {limit!r} is not an integer")
+            # geld refuses < 0 (INVALID_ARGUMENT) and caps at 1000; beyond int32 it is 1000 all the same.
+            request.limit = min(int(limit), 1000) if limit > 0 else max(int(limit), -1)
+        return self._call(self._stub.QueryCurves, request)
+
+    def query_curves(self, *, bond_preset=None, labels=None, where=None, limit=None, state=None):
+        """The curves of many jobs at once (QueryCurves, gelctl query): a list of (job, curve), newest
+        job first, where job is a dict as job() returns and curve a pandas.DataFrame as curve()
+        returns (every member of the job, columns gel.CURVE_COLUMNS). All the criteria must hold:
+
+        bond_preset: "bond1" or "bond2" (the resolved scene's bond.preset); None: any.
+        labels: {key: value}, or gelctl's --label form "key=value" or a list of them; every one
+          must be among the job's labels.
+        where: filters on the job's resolved scene, by dotted field name; one filter or a list of
+          them, each either
+            a string in gelctl's --where syntax: "field=value", "field>=x" or "field<=x"
+              ("generator.seed=1", "generator.lx>=30", "compression.fidelity=fast");
+            a tuple (field, op, value), op "=" (or "=="), ">=" or "<=":
+              ("generator.lx", ">=", 30), ("bond.preset", "=", "bond2");
+            or a gel.v1.ParameterFilter.
+          "=" matches the field's text or, when value is a number, its numeric value (booleans are
+          "true"/"false"); ">=" and "<=" compare numbers and need a finite number. generator.seed
+          matches any member's seed of an ensemble. A field the scene does not have matches nothing.
+        limit: jobs at most; None (or 0): geld's default, 100; more than 1000 is 1000 (geld's cap).
+        state: "succeeded" (None: the default), "failed", "cancelled", "running" or "queued".
+
+        A `where` or `labels` item that is not of these forms raises ValueError (TypeError for a
+        wrong type) before anything is sent; what geld refuses (an empty field name, as in "=1", or a
+        negative limit) raises gel.InvalidRequestError (code INVALID_ARGUMENT)."""
+        response = self._query(bond_preset, labels, where, state, limit)
+        return [(job_to_dict(entry.job), curves.curve_frame(entry.curve)) for entry in response.curves]
+
+    def query_curves_frame(self, *, bond_preset=None, labels=None, where=None, limit=None, state=None):
+        """query_curves()'s curves as one pandas.DataFrame: columns gel.JOB_CURVE_COLUMNS, i.e.
+        job_id, then curve()'s (member, seed, "phi [1]", "P [F0/a^2]", ...), the rows of each job
+        in the order of query_curves() (newest job first). Arguments and errors as query_curves();
+        no matching job: an empty table with these columns. For the jobs' other fields,
+        pandas.DataFrame(job for job, _ in client.query_curves(...)) makes a table to merge on its id."""
+        response = self._query(bond_preset, labels, where, state, limit)
+        return curves.jobs_curve_frame([(entry.job.id, entry.curve) for entry in response.curves])
 
     def logs(self, job_id):
         """The job's log lines as dicts: id, unix_ms, level, message."""

@@ -3,6 +3,8 @@ curve_to_csv), names with their units, so that a DataFrame from geld and a curve
 gelsim wrote read the same way."""
 import numpy
 
+from .v1 import service_pb2
+
 # (column, numpy dtype, value of a gel.v1.CurveRow), in curve.csv's order. Keep in step with
 # curve_to_csv: tests/service/test_python_package.sh compares these names with the header of
 # the curve.csv that geld's engine writes.
@@ -94,3 +96,23 @@ def ensemble_frame(curve_response):
         columns[f"{name} [{unit}]"] = numpy.array([s.mean for s in statistics], dtype=numpy.float64)
         columns[f"{name}_std [{unit}]"] = numpy.array([s.std for s in statistics], dtype=numpy.float64)
     return pandas.DataFrame(columns)
+
+
+JOB_CURVE_COLUMNS = ("job_id",) + CURVE_COLUMNS
+"""Columns of Client.query_curves_frame(): job_id (whose curve the row is), then CURVE_COLUMNS."""
+
+
+def jobs_curve_frame(job_curves):
+    """[(job id, GetCurveResponse), ...] -> one pandas.DataFrame with JOB_CURVE_COLUMNS: curve_frame()
+    of each job, one after the other in the given order, each row with its job's id."""
+    import pandas
+
+    per_job = [(job_id, curve_arrays(curve_response)) for job_id, curve_response in job_curves]
+    if not per_job:
+        # No job: an empty table with the columns and dtypes that a non-empty one has.
+        per_job = [("", curve_arrays(service_pb2.GetCurveResponse()))]
+    columns = {"job_id": numpy.array([job_id for job_id, arrays in per_job for _ in range(len(arrays["k"]))],
+                                     dtype=object)}
+    for name in CURVE_COLUMNS:
+        columns[name] = numpy.concatenate([arrays[name] for _, arrays in per_job])
+    return pandas.DataFrame(columns, columns=list(JOB_CURVE_COLUMNS))
