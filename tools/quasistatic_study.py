@@ -130,6 +130,13 @@ def run_one(gelsim, work, gel, fidelity, seed, committed=None):
         json.dump({"cpu_seconds": spent + usage.ru_utime + usage.ru_stime}, f)
     if proc.returncode != 0:
         last = open(stderr_path).read().strip().splitlines()[-1:]
+        if resume and proc.returncode == 2 and "does not read" in " ".join(last):
+            # A checkpoint of an older format: the run is deterministic, so start it again.
+            for name in ("checkpoint.bin", "checkpoint.prev.bin"):
+                if os.path.exists(os.path.join(out_dir, name)):
+                    os.remove(os.path.join(out_dir, name))
+            print(f"{gel} {fidelity} seed {seed}: checkpoint of an older format, starting again", flush=True)
+            return run_one(gelsim, work, gel, fidelity, seed, committed)
         raise RuntimeError(f"{gel} {fidelity} seed {seed}: gelsim exited {proc.returncode}: {last}")
     return cached(work, gel, fidelity, seed)
 
