@@ -373,19 +373,25 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
 
 TEST(Compression, ResumeIsBitIdentical) { expect_resume_bit_identical(tiny_scene()); }
 
-// The adaptive wall keeps controller state (speed factor, ledger baselines) in the checkpoint.
-TEST(Compression, ADamagedCheckpointIsNeverResumedButThePreviousOneIs) {
-  // One flipped bit in the stored particle state used to parse fine and resume a corrupted run.
-  const std::string dir = temp_dir("flipped");
-  std::atomic<bool> stop{false};
+// A tiny compression into `dir`, stopped (with its checkpoints) once it reaches target 2; the
+// options resume it there. `stop` must outlive the options.
+RunOptions stopped_at_target_2(const std::string& dir, std::atomic<bool>& stop) {
   RunOptions options;
   options.out_dir = dir;
   options.stop = &stop;
   options.progress_interval_seconds = 0;
-  options.on_progress = [&](const gel::v1::Progress& p) {
+  options.on_progress = [&stop](const gel::v1::Progress& p) {
     if (p.k() >= 2) stop = true;
   };
-  ASSERT_TRUE(run_compression(tiny_scene(), options).stopped);
+  EXPECT_TRUE(run_compression(tiny_scene(), options).stopped);
+  return options;
+}
+
+TEST(Compression, ADamagedCheckpointIsNeverResumedButThePreviousOneIs) {
+  // One flipped bit in the stored particle state used to parse fine and resume a corrupted run.
+  const std::string dir = temp_dir("flipped");
+  std::atomic<bool> stop{false};
+  RunOptions options = stopped_at_target_2(dir, stop);
   const std::string path = dir + "/checkpoint.bin", previous = dir + "/checkpoint.prev.bin";
   ASSERT_TRUE(std::filesystem::is_regular_file(previous)) << "no previous checkpoint kept";
   const std::string good = read_file(path), good_previous = read_file(previous);
@@ -440,14 +446,7 @@ std::string checkpoint_file(const std::string& magic, const std::string& message
 TEST(Compression, TheCheckpointIsAVersionedProtobufMessage) {
   const std::string dir = temp_dir("checkpoint-message");
   std::atomic<bool> stop{false};
-  RunOptions options;
-  options.out_dir = dir;
-  options.stop = &stop;
-  options.progress_interval_seconds = 0;
-  options.on_progress = [&](const gel::v1::Progress& p) {
-    if (p.k() >= 2) stop = true;
-  };
-  ASSERT_TRUE(run_compression(tiny_scene(), options).stopped);
+  RunOptions options = stopped_at_target_2(dir, stop);
   const std::string path = dir + "/checkpoint.bin";
   const std::string bytes = read_file(path);
   ASSERT_GT(bytes.size(), 16u);
@@ -495,6 +494,7 @@ TEST(Compression, TheCheckpointIsAVersionedProtobufMessage) {
   std::filesystem::remove_all(dir);
 }
 
+// The adaptive wall keeps controller state (speed factor, ledger baselines) in the checkpoint.
 TEST(Compression, AdaptiveWallResumeIsBitIdentical) {
   gel::v1::Scene scene = tiny_scene();
   scene.mutable_compression()->set_adaptive_wall_max_factor(4);
