@@ -47,6 +47,13 @@ bool is_terminal(JobState state) {
          state == gel::v1::JOB_STATE_CANCELLED;
 }
 
+// An enum field carries any number on the wire: a state that does not exist is refused rather
+// than matching nothing in silence.
+void require_job_state(int state) {
+  if (!gel::v1::JobState_IsValid(state))
+    throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "state: " + std::to_string(state) + " is not a job state");
+}
+
 ApiError unavailable() {
   return ApiError(grpc::StatusCode::UNAVAILABLE, "geld is shutting down; retry when it is back");
 }
@@ -251,6 +258,11 @@ bool valid_utf8(std::string_view text) {
 
 gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& request) {
   if (shutting_down_) throw unavailable();
+  // Seed 0 means "the default" in a scene and resolves to 1: in a list it would run seed 1 while
+  // being recorded as 0, and {0, 1} would give two identical members.
+  for (int i = 0; i < request.seeds_size(); ++i)
+    if (request.seeds(i) == 0)
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "seeds[" + std::to_string(i) + "]: 0 is not a seed; seeds start at 1");
   if (request.seeds_size() > options_.limits.max_seeds) {
     throw ApiError(grpc::StatusCode::RESOURCE_EXHAUSTED,
                    "seeds: " + std::to_string(request.seeds_size()) + " ensemble members, the limit is " +
@@ -444,6 +456,7 @@ gel::v1::Job JobManager::cancel(const std::string& id) {
 
 gel::v1::ListJobsResponse JobManager::list(const gel::v1::ListJobsRequest& request) {
   JobFilter filter;
+  require_job_state(request.state());
   filter.state = request.state();
   filter.name = request.name();
   if (!request.label().empty()) {
@@ -483,7 +496,9 @@ gel::v1::Curve JobManager::member_curve(const gel::v1::Job& job, const std::vect
   *curve.mutable_scene() = job.scene();
   if (member < job.seeds_size()) curve.mutable_scene()->mutable_generator()->set_seed(job.seeds(member));
   curve.set_particles(static_cast<std::int32_t>(job.particles()));
-  curve.set_program_version(engine_->program_version());
+  // The program that ran the job, not the one answering (they differ after an upgrade); jobs
+  // stored before versions were recorded say nothing rather than something wrong.
+  curve.set_program_version(job.program_version());
   for (const auto& r : rows) {
     if (r.member == member) *curve.add_rows() = r.row;
   }
@@ -570,6 +585,7 @@ gel::v1::QueryCurvesResponse JobManager::query(const gel::v1::QueryCurvesRequest
     if (p.has_max()) fp.max = p.max();
     filter.parameters.push_back(std::move(fp));
   }
+  require_job_state(request.state());
   filter.state = request.state() == gel::v1::JOB_STATE_UNSPECIFIED ? gel::v1::JOB_STATE_SUCCEEDED : request.state();
   if (request.limit() < 0) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "limit: must be >= 0");
   filter.limit = request.limit() == 0 ? 100 : std::min(request.limit(), 1000);
@@ -586,7 +602,9 @@ gel::v1::GetLogsResponse JobManager::logs(const gel::v1::GetLogsRequest& request
   get(request.job_id());  // NOT_FOUND
   if (request.limit() < 0) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "limit: must be >= 0");
   gel::v1::GetLogsResponse response;
-  for (auto& line : store_->logs(request.job_id(), request.after_id(), request.limit() == 0 ? 1000 : request.limit())) {
+  // Capped like ListJobs and QueryCurves: a client pages with after_id.
+  const int limit = request.limit() == 0 ? 1000 : std::min(request.limit(), 1000);
+  for (auto& line : store_->logs(request.job_id(), request.after_id(), limit)) {
     *response.add_lines() = std::move(line);
   }
   return response;

@@ -153,7 +153,8 @@ struct Script {
 class Service : public ::testing::Test {
  protected:
   void start(geld::Limits limits = {}, int workers = 2, std::shared_ptr<geld::Executor> executor = nullptr,
-             const std::string& listen = "127.0.0.1:0", const std::string& token = "") {
+             const std::string& listen = "127.0.0.1:0", const std::string& token = "",
+             std::shared_ptr<geld::Engine> engine = nullptr) {
     geld::DaemonOptions options;
     options.listen = listen;
     options.token = token;
@@ -161,7 +162,8 @@ class Service : public ::testing::Test {
     options.manager.workers = workers;
     options.manager.limits = limits;
     if (!executor) executor = geld::make_thread_executor();
-    daemon_ = std::make_unique<geld::Daemon>(options, geld::make_compression_engine(), executor);
+    if (!engine) engine = geld::make_compression_engine();
+    daemon_ = std::make_unique<geld::Daemon>(options, engine, executor);
     daemon_->start();
     channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(daemon_->port()), grpc::InsecureChannelCredentials());
     stub_ = gel::v1::GelService::NewStub(channel_);
@@ -589,7 +591,7 @@ TEST_F(Service, TooManyParticlesIsResourceExhausted) {
   EXPECT_FALSE(submit_ok(tiny_scene_json()).empty());  // 64 particles: fine
   gel::v1::SubmitJobRequest many;
   many.set_scene_json(tiny_scene_json());
-  for (int i = 0; i < 1001; ++i) many.add_seeds(i);
+  for (int i = 0; i < 1001; ++i) many.add_seeds(static_cast<std::uint64_t>(i) + 1);
   gel::v1::SubmitJobResponse response;
   EXPECT_EQ(stub_->SubmitJob(ctx().get(), many, &response).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
 }
@@ -808,6 +810,91 @@ void expect_same_curve(const gel::v1::Curve& a, const gel::v1::Curve& b) {
     EXPECT_EQ(x.steps(), y.steps()) << "k " << x.k();
     EXPECT_EQ(x.ruptures().normal(), y.ruptures().normal()) << "k " << x.k();
   }
+}
+
+// The real compression engine under another program version, as after an upgrade of geld.
+class VersionedEngine final : public geld::Engine {
+ public:
+  explicit VersionedEngine(std::string version) : version_(std::move(version)) {}
+  Prepared prepare(const gel::v1::SubmitJobRequest& request, const geld::Limits& limits) override {
+    return real_->prepare(request, limits);
+  }
+  std::string scene_json(const gel::v1::Scene& scene) override { return real_->scene_json(scene); }
+  std::string curve_json(const gel::v1::Curve& curve) override { return real_->curve_json(curve); }
+  std::string program_version() override { return version_; }
+
+ private:
+  std::shared_ptr<geld::Engine> real_ = geld::make_compression_engine();
+  std::string version_;
+};
+
+TEST_F(Service, ACurveNamesTheProgramThatRanItNotTheOneAnswering) {
+  // GetCurve used to stamp every curve with the answering geld's version.
+  Script& script = make_script();
+  start({}, 1, scripted(script), "127.0.0.1:0", "", std::make_shared<VersionedEngine>("0.1.0 git aaaaaaa Release"));
+  const std::string id = submit_ok(tiny_scene_json());
+  watch(id);
+  ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  stop();
+  start({}, 1, scripted(script), "127.0.0.1:0", "", std::make_shared<VersionedEngine>("0.2.0 git bbbbbbb Release"));
+  EXPECT_EQ(get(id).program_version(), "0.1.0 git aaaaaaa Release");
+  const auto response = curve(id);
+  ASSERT_EQ(response.members_size(), 1);
+  EXPECT_EQ(response.members(0).curve().program_version(), "0.1.0 git aaaaaaa Release");
+  EXPECT_EQ(nlohmann::json::parse(response.json()).at("program_version"), "0.1.0 git aaaaaaa Release");
+  // A job of the new geld says the new version.
+  const std::string fresh = submit_ok(tiny_scene_json(4));
+  watch(fresh);
+  EXPECT_EQ(curve(fresh).members(0).curve().program_version(), "0.2.0 git bbbbbbb Release");
+}
+
+TEST_F(Service, SeedZeroUnknownStatesAndHugeLogPagesAreRefusedOrCapped) {
+  Script& script = make_script();
+  start({}, 1, scripted(script));
+  // Seed 0 would run as seed 1 (0 means "default" in a scene) while being recorded as 0.
+  gel::v1::SubmitJobRequest zero;
+  zero.set_scene_json(tiny_scene_json());
+  zero.add_seeds(3);
+  zero.add_seeds(0);
+  gel::v1::SubmitJobResponse submitted;
+  auto status = stub_->SubmitJob(ctx().get(), zero, &submitted);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(), "seeds[1]: 0 is not a seed; seeds start at 1");
+  // A state number that names no state matched nothing in silence.
+  gel::v1::ListJobsRequest list;
+  list.set_state(static_cast<gel::v1::JobState>(9));
+  gel::v1::ListJobsResponse listed;
+  status = stub_->ListJobs(ctx().get(), list, &listed);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(), "state: 9 is not a job state");
+  gel::v1::QueryCurvesRequest query;
+  query.set_state(static_cast<gel::v1::JobState>(-2));
+  gel::v1::QueryCurvesResponse queried;
+  status = stub_->QueryCurves(ctx().get(), query, &queried);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(), "state: -2 is not a job state");
+  // GetLogs pages like ListJobs and QueryCurves: at most 1000 lines, whatever the limit.
+  auto chatty = std::make_shared<FnExecutor>([](const geld::RunContext& ctx) {
+    for (int i = 0; i < 1200; ++i) ctx.log("info", "line " + std::to_string(i));
+    geld::RunResult result;
+    result.finished = true;
+    *result.curve.add_rows() = make_row(0, 1);
+    return result;
+  });
+  stop();
+  start({}, 1, chatty);
+  const std::string id = submit_ok(tiny_scene_json());
+  watch(id);
+  gel::v1::GetLogsRequest logs_request;
+  logs_request.set_job_id(id);
+  logs_request.set_limit(100000);
+  gel::v1::GetLogsResponse logs;
+  ASSERT_TRUE(stub_->GetLogs(ctx().get(), logs_request, &logs).ok());
+  EXPECT_EQ(logs.lines_size(), 1000);
+  logs_request.set_after_id(logs.lines(999).id());
+  ASSERT_TRUE(stub_->GetLogs(ctx().get(), logs_request, &logs).ok());
+  EXPECT_GT(logs.lines_size(), 200);  // the rest: 1200 lines and geld's own
+  EXPECT_LT(logs.lines_size(), 1000);
 }
 
 TEST_F(Service, JobStoppedByShutdownResumesOnRestartWithTheSameCurve) {
