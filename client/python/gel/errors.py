@@ -18,7 +18,7 @@ class JobNotFoundError(GelError, LookupError):
 
 class InvalidRequestError(GelError, ValueError):
     """geld refused a request field (INVALID_ARGUMENT); `details` starts with the field's dotted
-    name, e.g. "scene.generator.lx: must be finite and > 0"."""
+    name, e.g. "scene.generator.lx: must be positive, got -5"."""
 
 
 def error_from_rpc(rpc_error, address, job_id=None):
