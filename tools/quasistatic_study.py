@@ -384,6 +384,8 @@ def main():
     parser.add_argument("--variant", action="append", choices=sorted(VARIANTS),
                         help="variants to run (repeatable; default: quasistatic and paper)")
     parser.add_argument("--seeds", type=int, help="seeds 1..N per ensemble (default: 8 small, 4 paper size)")
+    parser.add_argument("--from-seed", type=int, default=1,
+                        help="first seed to run (so that a second study process can take the later seeds)")
     parser.add_argument("--jobs", type=int, default=2, help="runs at a time")
     parser.add_argument("--report-only", action="store_true", help="no runs: tables from the cached runs")
     args = parser.parse_args()
@@ -394,7 +396,7 @@ def main():
         # Seed-major, so that an interrupted study leaves comparable ensembles of both fidelities.
         committed = committed_runs()
         tasks = [(gel, fidelity, seed) for gel in gels
-                 for seed in range(1, (args.seeds or DEFAULT_SEEDS[gel]) + 1) for fidelity in fidelities]
+                 for seed in range(args.from_seed, (args.seeds or DEFAULT_SEEDS[gel]) + 1) for fidelity in fidelities]
         with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
             futures = {pool.submit(run_one, args.gelsim, args.work, *task, committed): task for task in tasks}
             for future in concurrent.futures.as_completed(futures):
