@@ -27,8 +27,17 @@ using google::protobuf::FieldDescriptor;
 void flatten(const google::protobuf::Message& message, const std::string& prefix,
              std::vector<std::tuple<std::string, std::string, double>>& out) {
   const auto* reflection = message.GetReflection();
+  // Every scalar field, at its default too: a resolved scene's false, 0 and "" are values that
+  // ran (compression.quasistatic = false must match a fast run), though proto3 does not list
+  // them as set. Unset sub-messages and empty lists stay out.
+  const auto* descriptor = message.GetDescriptor();
   std::vector<const FieldDescriptor*> fields;
-  reflection->ListFields(message, &fields);
+  for (int i = 0; i < descriptor->field_count(); ++i) {
+    const FieldDescriptor* field = descriptor->field(i);
+    if (field->is_repeated() ? reflection->FieldSize(message, field) > 0
+                             : field->cpp_type() != FieldDescriptor::CPPTYPE_MESSAGE || reflection->HasField(message, field))
+      fields.push_back(field);
+  }
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (const auto* field : fields) {
     const std::string name = prefix + field->name();

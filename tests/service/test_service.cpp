@@ -1176,6 +1176,14 @@ TEST_F(Service, QueryCurvesByBondLabelsAndParameters) {
   p->set_equals("fast");
   p->set_field("compression.fidelity");
   EXPECT_EQ(query(request).size(), 3u);
+  // Values at their proto3 default are values too: a fast run has compression.quasistatic false.
+  p->set_field("compression.quasistatic");
+  p->set_equals("false");
+  EXPECT_EQ(query(request).size(), 3u);
+  p->set_equals("true");
+  EXPECT_TRUE(query(request).empty());
+  p->set_field("compression.fidelity");
+  p->set_equals("fast");
   request.set_state(gel::v1::JOB_STATE_FAILED);
   EXPECT_TRUE(query(request).empty());
   // An ensemble is found by any of its members' seeds, not by the seed of the scene submitted.
