@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "executor.hpp"
+#include "gel/analysis/run_analysis.hpp"
 #include "gel/compression.hpp"
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
@@ -213,6 +214,11 @@ class CompressionEngine final : public Engine {
   std::string scene_json(const gel::v1::Scene& scene) override { return gel::scene_to_json(scene); }
   std::string curve_json(const gel::v1::Curve& curve) override { return gel::curve_to_json(curve).dump(); }
   std::string program_version() override { return gel::program_version(); }
+  std::string analysis_json(const std::vector<gel::v1::Curve>& curves, bool include_unequilibrated) override {
+    gel::analysis::RunAnalysisOptions options;
+    options.include_unequilibrated = include_unequilibrated;
+    return gel::analysis::to_json(gel::analysis::analyse_curves(curves, options)).dump();
+  }
 };
 
 class ThreadExecutor final : public Executor {

@@ -63,6 +63,9 @@ class Engine {
   // The curve as one JSON object with a "rows" list.
   virtual std::string curve_json(const gel::v1::Curve& curve) = 0;
   virtual std::string program_version() = 0;
+  // The curve analysis of one run or an ensemble (gelsim analyze-run's, as JSON text); throws
+  // gel::InvalidArgument when the curves cannot be analysed.
+  virtual std::string analysis_json(const std::vector<gel::v1::Curve>& curves, bool include_unequilibrated) = 0;
 };
 
 // The compression engine (gelcore).
@@ -95,6 +98,7 @@ class JobManager {
   gel::v1::Job cancel(const std::string& id);
   gel::v1::ListJobsResponse list(const gel::v1::ListJobsRequest& request);
   gel::v1::GetCurveResponse curve(const std::string& id);
+  gel::v1::GetAnalysisResponse analysis(const gel::v1::GetAnalysisRequest& request);
   gel::v1::QueryCurvesResponse query(const gel::v1::QueryCurvesRequest& request);
   gel::v1::GetLogsResponse logs(const gel::v1::GetLogsRequest& request);
 

@@ -198,6 +198,11 @@ grpc::Status GelServiceImpl::GetLogs(grpc::ServerContext* context, const gel::v1
   return guarded(context, "GetLogs", [&] { *response = manager_.logs(*request); });
 }
 
+grpc::Status GelServiceImpl::GetAnalysis(grpc::ServerContext* context, const gel::v1::GetAnalysisRequest* request,
+                                         gel::v1::GetAnalysisResponse* response) {
+  return guarded(context, "GetAnalysis", [&] { *response = manager_.analysis(*request); });
+}
+
 bool is_loopback_address(const std::string& host_port) {
   std::string host = host_port;
   if (!host.empty() && host.front() == '[') {

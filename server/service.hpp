@@ -47,6 +47,8 @@ class GelServiceImpl final : public gel::v1::GelService::Service {
                            gel::v1::QueryCurvesResponse* response) override;
   grpc::Status GetLogs(grpc::ServerContext* context, const gel::v1::GetLogsRequest* request,
                        gel::v1::GetLogsResponse* response) override;
+  grpc::Status GetAnalysis(grpc::ServerContext* context, const gel::v1::GetAnalysisRequest* request,
+                           gel::v1::GetAnalysisResponse* response) override;
 
  private:
   template <class F>

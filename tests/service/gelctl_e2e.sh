@@ -89,6 +89,16 @@ listed=$(ctl list --state succeeded) || fail "list --state succeeded"
 grep -qE "^$job +succeeded " <<<"$listed" || fail "list --state succeeded does not show $job: $listed"
 listed=$(ctl list --state running) || fail "list --state running"
 if grep -q "^$job " <<<"$listed"; then fail "list --state running shows a finished job: $listed"; fi
+analysis=$(ctl analysis "$job") || fail "analysis"
+grep -qx "members: 1" <<<"$analysis" || fail "analysis summary does not say 1 member: $analysis"
+grep -qE "^(power law P = C phi\^lambda: lambda = |power law: none \()" <<<"$analysis" || fail "analysis has no power-law line: $analysis"
+ctl analysis "$job" --json >"$work/analysis.json" || fail "analysis --json"
+$py - "$work/analysis.json" "$work/curve.json" <<'PY' || fail "analysis --json"
+import json, sys
+analysis, curve = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+assert analysis["members"] == 1
+assert analysis["rows"]["P"]["mean"] == [row["P"] for row in curve["rows"]], (analysis["rows"]["P"], curve["rows"])
+PY
 logs=$(ctl logs "$job") || fail "logs"
 grep -qE " member 0 finished with 4 rows$" <<<"$logs" || fail "logs lack the member's end: $logs"
 listed=$(ctl query --label suite=e2e) || fail "query"

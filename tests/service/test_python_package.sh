@@ -183,6 +183,24 @@ assert isinstance(listed[0]["scene"]["generator"]["seed"], int), listed[0]["scen
 assert any(line["message"] == "member 1 finished with 4 rows" for line in client.logs(small))
 print("ok: jobs, logs, cancel")
 
+# GetAnalysis: geld's analysis of the finished 2-seed ensemble; its row means are the means of the
+# members' rows from curve(), and a cancelled job has none.
+analysis = client.analysis(small)
+assert analysis["members"] == 2, analysis["members"]
+assert abs(analysis["E0"] - 0.025) < 1e-15, analysis["E0"]
+means = client.analysis_rows(small)
+members = curve.groupby("member")["P [F0/a^2]"].apply(list)
+expected = [(a + b) / 2 for a, b in zip(members[0], members[1])]
+assert len(means) == len(expected) == 4, (len(means), expected)
+assert all(abs(m - e) <= 1e-12 * max(1.0, abs(e)) for m, e in zip(means["P"], expected)), (list(means["P"]), expected)
+assert "P_std" in means.columns and (means["P_std"] >= 0).all()
+try:
+    client.analysis(blocker)
+    raise SystemExit("FAIL: an analysis of a cancelled job")
+except gel.GelError as error:
+    assert error.code == "FAILED_PRECONDITION", error
+print(f"ok: analysis {small}: 2 members, row means equal to the members' mean")
+
 # QueryCurves: two more jobs, other labels and seeds (queued behind each other on the one worker).
 small_overrides = {"generator.n_floc": 8, "generator.n_clusters": 8, "generator.lx": 30, "generator.ly": 50,
                    "compression.steps": 3}

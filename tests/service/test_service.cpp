@@ -680,7 +680,7 @@ TEST_F(Service, AMalformedRequestIsInvalidArgumentNotInternal) {
   // answer to such a request was INTERNAL with no message, as if geld had failed.
   start();
   const std::string garbage("\x0a\xff\xff\xff\xff\x07", 6);
-  for (const char* method : {"SubmitJob", "GetJob", "CancelJob", "ListJobs", "GetCurve", "QueryCurves", "GetLogs"}) {
+  for (const char* method : {"SubmitJob", "GetJob", "CancelJob", "ListJobs", "GetCurve", "QueryCurves", "GetLogs", "GetAnalysis"}) {
     std::string response;
     const grpc::Status status = raw_unary_call(channel_, "", std::string("/gel.v1.GelService/") + method, garbage, &response);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << method << ": " << status.error_message();
@@ -822,6 +822,9 @@ class VersionedEngine final : public geld::Engine {
   std::string scene_json(const gel::v1::Scene& scene) override { return real_->scene_json(scene); }
   std::string curve_json(const gel::v1::Curve& curve) override { return real_->curve_json(curve); }
   std::string program_version() override { return version_; }
+  std::string analysis_json(const std::vector<gel::v1::Curve>& curves, bool include_unequilibrated) override {
+    return real_->analysis_json(curves, include_unequilibrated);
+  }
 
  private:
   std::shared_ptr<geld::Engine> real_ = geld::make_compression_engine();
@@ -846,6 +849,47 @@ TEST_F(Service, ACurveNamesTheProgramThatRanItNotTheOneAnswering) {
   const std::string fresh = submit_ok(tiny_scene_json(4));
   watch(fresh);
   EXPECT_EQ(curve(fresh).members(0).curve().program_version(), "0.2.0 git bbbbbbb Release");
+}
+
+TEST_F(Service, GetAnalysisAnalysesAFinishedEnsembleWhereItsRowsAre) {
+  start({}, 2);
+  const std::string id = submit_ok(tiny_scene_json(5), {3, 4, 5});
+  gel::v1::GetAnalysisRequest request;
+  request.set_job_id(id);
+  gel::v1::GetAnalysisResponse response;
+  // Not before it has finished: members of unequal length would be mixed row by row.
+  auto status = stub_->GetAnalysis(ctx().get(), request, &response);
+  if (!status.ok()) {
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << status.error_message();
+    EXPECT_NE(status.error_message().find("needs every member's rows"), std::string::npos) << status.error_message();
+  }
+  watch(id);
+  ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  status = stub_->GetAnalysis(ctx().get(), request, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(response.job_id(), id);
+  EXPECT_EQ(response.members(), 3);
+  const nlohmann::json analysis = nlohmann::json::parse(response.json());
+  EXPECT_EQ(analysis.at("members"), 3);
+  EXPECT_NEAR(analysis.at("E0").get<double>(), 0.025, 1e-15);  // the model's unit, bond 1
+  // The ensemble mean of P at each row is the mean of the members' rows as GetCurve gives them.
+  const auto curves = curve(id);
+  ASSERT_EQ(curves.members_size(), 3);
+  const auto& mean_p = analysis.at("rows").at("P").at("mean");
+  ASSERT_EQ(mean_p.size(), static_cast<std::size_t>(curves.members(0).curve().rows_size()));
+  for (std::size_t k = 0; k < mean_p.size(); ++k) {
+    double sum = 0;
+    for (const auto& member : curves.members()) sum += member.curve().rows(static_cast<int>(k)).p();
+    EXPECT_NEAR(mean_p[k].get<double>(), sum / 3, 1e-12 * std::max(1.0, std::abs(sum))) << "k " << k;
+  }
+  // Every interval names its rows, and the fits say which rows they used or why none.
+  EXPECT_EQ(analysis.at("regimes").at("intervals").size(), mean_p.size() - 1);
+  EXPECT_TRUE(analysis.at("power_law").is_object() || analysis.contains("power_law_error"));
+  // Errors: unknown job, no id.
+  request.set_job_id("job-999999");
+  EXPECT_EQ(stub_->GetAnalysis(ctx().get(), request, &response).error_code(), grpc::StatusCode::NOT_FOUND);
+  request.set_job_id("");
+  EXPECT_EQ(stub_->GetAnalysis(ctx().get(), request, &response).error_code(), grpc::StatusCode::INVALID_ARGUMENT);
 }
 
 TEST_F(Service, SeedZeroUnknownStatesAndHugeLogPagesAreRefusedOrCapped) {

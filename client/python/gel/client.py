@@ -335,6 +335,30 @@ class Client:
         response = self._query(bond_preset, labels, where, state, limit)
         return curves.jobs_curve_frame([(entry.job.id, entry.curve) for entry in response.curves])
 
+    def analysis(self, job_id, *, include_unequilibrated=False):
+        """The curve analysis geld computes for a finished job (GetAnalysis, gelctl analysis) as a
+        dict: members; rows and intervals (name -> {mean, std, members}, over the members); the
+        power_law and gel_point fits (None with power_law_error / gel_point_error when they
+        fail), with the phi range and rows they used; excluded_rows with their reasons; regimes
+        (boundaries and per-interval rates, energy increments also in E0); E0 in F0 a. Only rows
+        that every member reached at equilibrium with a spanning network are fitted, unless
+        include_unequilibrated. A job that has not succeeded raises gel.GelError
+        (FAILED_PRECONDITION)."""
+        request = service_pb2.GetAnalysisRequest(job_id=job_id, include_unequilibrated=include_unequilibrated)
+        return json.loads(self._call(self._stub.GetAnalysis, request, job_id).json)
+
+    def analysis_rows(self, job_id, *, include_unequilibrated=False):
+        """analysis()'s per-row ensemble means as a pandas.DataFrame, one row per phi_k: a column
+        per observable (phi, P, contact_number, ...) and its standard deviation over the members
+        as <name>_std."""
+        import pandas
+        rows = self.analysis(job_id, include_unequilibrated=include_unequilibrated)["rows"]
+        columns = {}
+        for name, values in rows.items():
+            columns[name] = values["mean"]
+            columns[name + "_std"] = values["std"]
+        return pandas.DataFrame(columns)
+
     def logs(self, job_id):
         """The job's log lines as dicts: id, unix_ms, level, message."""
         request = service_pb2.GetLogsRequest(job_id=job_id)
