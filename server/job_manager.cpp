@@ -300,10 +300,17 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
   }
   // Run cache: the same resolved scene, seeds and program give the same bits (the engine is
   // deterministic), so an identical submission gets the job that already has them.
+  // The key leaves out what does not change a bit of the result: the engine threads (runs are
+  // bit-identical for any number) and the scene's own seed when a seed list replaces it; a run
+  // without a list is the list of its scene's seed.
   const std::string version = engine_->program_version();
+  gel::v1::Scene keyed = prepared.scene;
+  keyed.mutable_integration()->clear_threads();
   std::string seeds_text;
+  if (request.seeds_size() == 0) seeds_text = std::to_string(keyed.generator().seed()) + ",";
   for (const std::uint64_t seed : request.seeds()) seeds_text += std::to_string(seed) + ",";
-  const std::string cache_key = fnv1a_hex(prepared.scene_json + "|" + seeds_text + "|" + version);
+  keyed.mutable_generator()->clear_seed();
+  const std::string cache_key = fnv1a_hex(engine_->scene_json(keyed) + "|" + seeds_text + "|" + version);
   const double no_number = std::numeric_limits<double>::quiet_NaN();
   prepared.parameters.emplace_back("run.cache_key", cache_key, no_number);
   prepared.parameters.emplace_back("run.program_version", version, no_number);

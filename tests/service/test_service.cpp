@@ -1741,6 +1741,24 @@ TEST_F(Service, AnIdenticalSubmissionReturnsTheJobThatAlreadySucceeded) {
   EXPECT_FALSE(rerun.cached());
   EXPECT_NE(rerun.job_id(), first.job_id());
   EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 4);
+  // What does not change a bit of the result does not miss the cache: the engine threads (geld
+  // writes its --threads-per-member into the stored scene), and the scene's own seed when a
+  // seed list replaces it. A run without a list is the list of its scene's seed.
+  auto with = [](const std::string& extra) {
+    nlohmann::json scene = nlohmann::json::parse(tiny_scene_json());
+    scene.merge_patch(nlohmann::json::parse(extra));
+    return scene.dump();
+  };
+  EXPECT_EQ(submit_plain(with(R"({"integration": {"threads": 2}})"), {3, 4}, false).job_id(), first.job_id());
+  EXPECT_EQ(submit_plain(with(R"({"generator": {"seed": 99}})"), {3, 4}, false).job_id(), first.job_id());
+  const auto single = submit_plain(with(R"({"generator": {"seed": 6}})"), {}, false);
+  watch(single.job_id());
+  ASSERT_EQ(get(single.job_id()).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  const auto as_list = submit_plain(tiny_scene_json(), {6}, false);
+  EXPECT_TRUE(as_list.cached());
+  EXPECT_EQ(as_list.job_id(), single.job_id());
+  // The order of the members is part of the job (member 0 is seed 4 here): a new job.
+  EXPECT_FALSE(submit_plain(tiny_scene_json(), {4, 3}, false).cached());
 }
 
 TEST_F(Service, StoreWriteFailureIsInternalAndReadsGoOn) {
