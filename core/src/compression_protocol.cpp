@@ -90,6 +90,17 @@ struct CompressionState {
   RelaxState relax;                     // quasi-static: the relaxation of the current strain step
 };
 
+// The scene's own output requests (output.trajectory_every, into DIR/trajectory.gsd) where the
+// caller's options leave them open: a job of geld asks for its trajectory this way.
+RunOptions with_scene_outputs(RunOptions options, const gel::v1::Scene& scene) {
+  if (options.trajectory_every <= 0 && scene.output().trajectory_every() > 0 && !options.out_dir.empty()) {
+    options.trajectory_every = scene.output().trajectory_every();
+    if (options.trajectory_path.empty())
+      options.trajectory_path = (std::filesystem::path(options.out_dir) / "trajectory.gsd").string();
+  }
+  return options;
+}
+
 // --- The protocol's part of the checkpoint -------------------------------------------------
 
 void encode_state(const CompressionState& s, gel::v1::ProtocolState& m) {
@@ -267,7 +278,7 @@ class CompressionRun {
         curve_(std::move(curve)),
         state_(state),
         settings_(compression_settings(curve_.scene().compression())),
-        options_(options),
+        options_(with_scene_outputs(options, curve_.scene())),
         targets_(compression_targets(state.phi0, settings_.w0, settings_.phi_max, settings_.steps)),
         session_start_(Clock::now()),
         last_progress_(session_start_),

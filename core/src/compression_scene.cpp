@@ -152,6 +152,11 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   if (params.max_speed != 0.0) integration->set_max_speed(params.max_speed);
 
   if (!(params.effects & kWalls)) throw InvalidArgument("effects", "compression needs the 'walls' effect");
+  // A frame every few steps of a dynamics whose events take thousands would only fill the disk.
+  const std::int64_t trajectory_every = resolved.output().trajectory_every();
+  if (trajectory_every < 0 || (trajectory_every > 0 && trajectory_every < 100))
+    throw InvalidArgument("output.trajectory_every", "must be 0 (no trajectory) or at least 100 steps, got " +
+                                                         std::to_string(trajectory_every));
   if (resolved.generator().preset().empty() && resolved.generator().n_floc() == 0) {
     // No generator: the caller must pass an initial configuration (checked when running).
   } else {

@@ -304,6 +304,33 @@ assert len(snapshot["x"]) == 64 and len(snapshot["wall"]) == 64 and not snapshot
 assert set(numpy.unique(snapshot["wall"])) <= {0, 1, 2} and snapshot["wall_top"] > snapshot["wall_bottom"]
 print("ok: read_configuration (.json, .pb, a job's snapshot)")
 
+# A job's trajectory: the scene asks for a frame every 20000 steps; gsd.hoomd (Debian's
+# python3-gsd) reads the member's DIR/trajectory.gsd, frames in step order, every particle.
+try:
+    import gsd.hoomd
+except ImportError:
+    gsd = None
+if gsd is not None:
+    traced = client.submit("quick", seeds=[9], fidelity="fast", overrides={"output.trajectory_every": 20000,
+                                                                           "compression.steps": 2})
+    for _ in client.watch(traced):
+        pass
+    job = client.job(traced)
+    assert job["state"] == "succeeded", job
+    with gsd.hoomd.open(os.path.join(data_dir, job["out_dir"], "m0-seed9", "trajectory.gsd"), "rb") as trajectory:
+        steps = [frame.configuration.step for frame in trajectory]
+        assert len(steps) >= 3 and steps == sorted(steps) and steps[0] == 0, steps
+        # A frame at the first chunk boundary at or after each multiple of 20000 steps.
+        periods = [step // 20000 for step in steps]
+        assert periods == sorted(set(periods)), steps
+        assert trajectory[0].particles.N == job["particles"], (trajectory[0].particles.N, job["particles"])
+    try:
+        client.submit("quick", overrides={"output.trajectory_every": 10})
+        raise AssertionError("a frame every 10 steps was accepted")
+    except gel.InvalidRequestError as error:
+        assert "output.trajectory_every" in str(error), error
+    print(f"ok: trajectory of {traced}: {len(steps)} frames, read by gsd.hoomd")
+
 for call in (client.curve, client.job, client.cancel, lambda job_id: list(client.watch(job_id))):
     try:
         call("job-999999")
