@@ -212,7 +212,7 @@ void JobManager::set_state(const std::shared_ptr<Live>& live, JobState state, co
   spdlog::info("job {}: {}{}{}", id, Store::state_name(state), message.empty() ? "" : ": ", message);
 }
 
-void JobManager::job_log(const std::string& id, const std::string& level, const std::string& message) {
+void JobManager::job_log(const std::string& id, const std::string& level, const std::string& message, int member) {
   spdlog::log(spdlog::level::from_str(level), "job {}: {}", id, message);
   // A log line that cannot be stored (full disk) is still logged and streamed: it must not fail
   // the job it describes.
@@ -226,7 +226,7 @@ void JobManager::job_log(const std::string& id, const std::string& level, const 
     gel::v1::JobUpdate update;
     update.set_kind(gel::v1::JobUpdate::LOG);
     update.set_message(message);
-    update.set_member(live->job.member());
+    update.set_member(member >= 0 ? member : live->job.member());
     publish(*live, std::move(update));
   }
 }
@@ -908,16 +908,17 @@ void JobManager::run_member(const std::shared_ptr<Live>& live, int member) {
         update.set_seed(seed);
         publish(*live, std::move(update));
       };
-      ctx.log = [this, id](const std::string& level, const std::string& message) { job_log(id, level, message); };
+      ctx.log = [this, id, member](const std::string& level, const std::string& message) { job_log(id, level, message, member); };
       job_log(id, "info",
               "member " + std::to_string(member) + " (seed " + std::to_string(seed) + ") starts in " + ctx.out_dir +
-                  (ctx.handle.empty() ? "" : " (handle " + ctx.handle + ")"));
+                  (ctx.handle.empty() ? "" : " (handle " + ctx.handle + ")"),
+              member);
       RunResult result = executor_->run(ctx);
       if (result.finished) {
         std::vector<gel::v1::CurveRow> rows(result.curve.rows().begin(), result.curve.rows().end());
         store_->replace_rows(id, member, seed, rows, now_ms());
         store_->set_member_finished(id, member, now_ms());
-        job_log(id, "info", "member " + std::to_string(member) + " finished with " + std::to_string(rows.size()) + " rows");
+        job_log(id, "info", "member " + std::to_string(member) + " finished with " + std::to_string(rows.size()) + " rows", member);
         outcome = Outcome::kFinished;
       }
     } catch (const StoreError& e) {
@@ -967,7 +968,7 @@ void JobManager::run_member(const std::shared_ptr<Live>& live, int member) {
       return;
     }
     try {
-      job_log(id, "error", "member " + std::to_string(member) + ": " + error);
+      job_log(id, "error", "member " + std::to_string(member) + ": " + error, member);
     } catch (...) {
     }
     // One member failing fails the job: the others stop (they stay resumable on disk).

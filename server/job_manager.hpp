@@ -138,7 +138,8 @@ class JobManager {
   void end_job(const std::shared_ptr<Live>& live, gel::v1::JobState state, const std::string& message);
   void publish(Live& live, gel::v1::JobUpdate update);
   void set_state(const std::shared_ptr<Live>& live, gel::v1::JobState state, const std::string& message);
-  void job_log(const std::string& id, const std::string& level, const std::string& message);
+  // member: the member the line is about (its LOG update says so); -1: the job as a whole.
+  void job_log(const std::string& id, const std::string& level, const std::string& message, int member = -1);
   void wait_for_space(const std::shared_ptr<Live>& live, int member, const std::string& error);
   std::shared_ptr<Live> find_live(const std::string& id);
   gel::v1::Curve member_curve(const gel::v1::Job& job, const std::vector<StoredRow>& rows, int member);

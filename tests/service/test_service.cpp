@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -849,6 +850,39 @@ TEST_F(Service, ACurveNamesTheProgramThatRanItNotTheOneAnswering) {
   const std::string fresh = submit_ok(tiny_scene_json(4));
   watch(fresh);
   EXPECT_EQ(curve(fresh).members(0).curve().program_version(), "0.2.0 git bbbbbbb Release");
+}
+
+TEST_F(Service, ALogUpdateNamesTheMemberItIsAbout) {
+  // Member 1 logs and finishes while member 0 still runs: its LOG updates carried the job's
+  // lowest unfinished member (0) instead of 1.
+  std::atomic<bool> release{false};
+  auto executor = std::make_shared<FnExecutor>([&release](const geld::RunContext& ctx) {
+    if (ctx.member == 0)
+      while (!release.load() && !ctx.stop->load()) std::this_thread::sleep_for(5ms);
+    ctx.log("info", "hello from member " + std::to_string(ctx.member));
+    geld::RunResult result;
+    result.finished = true;
+    *result.curve.add_rows() = make_row(0, static_cast<double>(ctx.seed));
+    return result;
+  });
+  start({}, 2, executor);
+  const std::string id = submit_ok(tiny_scene_json(), {5, 6});
+  std::vector<JobUpdate> updates;
+  std::thread watcher([&] {
+    updates = watch(id, nullptr, [&](const JobUpdate& u) {
+      if (u.kind() == JobUpdate::LOG && u.message() == "member 1 finished with 1 rows") release = true;
+      return true;
+    });
+  });
+  watcher.join();
+  std::map<std::string, int> member_of;
+  for (const auto& u : updates)
+    if (u.kind() == JobUpdate::LOG) member_of[u.message()] = u.member();
+  ASSERT_TRUE(member_of.count("hello from member 1")) << "no log line from member 1";
+  EXPECT_EQ(member_of["hello from member 1"], 1);
+  EXPECT_EQ(member_of["member 1 finished with 1 rows"], 1);
+  EXPECT_EQ(member_of["hello from member 0"], 0);
+  EXPECT_EQ(member_of["member 0 finished with 1 rows"], 0);
 }
 
 TEST_F(Service, GetAnalysisAnalysesAFinishedEnsembleWhereItsRowsAre) {
