@@ -417,7 +417,9 @@ gel::v1::Job JobManager::cancel(const std::string& id) {
     bool ran = false;
     {
       std::lock_guard lock(live->mutex);
-      ran = live->started;
+      // Started in this geld, or in an earlier one (a job that ran before a restart waits in the
+      // queue again until a worker resumes it).
+      ran = live->started || live->job.started_unix_ms() > 0;
     }
     try {
       end_job(live, gel::v1::JOB_STATE_CANCELLED, ran ? "cancelled while running" : "cancelled before it ran");

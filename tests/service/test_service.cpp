@@ -852,6 +852,42 @@ TEST_F(Service, ACurveNamesTheProgramThatRanItNotTheOneAnswering) {
   EXPECT_EQ(curve(fresh).members(0).curve().program_version(), "0.2.0 git bbbbbbb Release");
 }
 
+TEST_F(Service, AJobThatRanBeforeARestartIsCancelledWhileRunningNotBeforeItRan) {
+  // Two jobs run and geld stops; the next geld has one worker, so one of them waits its turn.
+  // Cancelled while it waits, it is a job that ran (its checkpoint and rows are there), and its
+  // message said "cancelled before it ran".
+  Script& script = make_script();
+  script.rows = 3;
+  script.open_rows = 1;
+  start({}, 2, scripted(script));
+  const std::string a = submit_ok(tiny_scene_json(), {1});
+  const std::string b = submit_ok(tiny_scene_json(), {2});
+  ASSERT_TRUE(wait_for([&] { return script.running.load() == 2; }));
+  stop();
+  start({}, 1, scripted(script));
+  ASSERT_TRUE(wait_for([&] { return script.running.load() == 1; }));
+  // The job the one worker did not take has logged one start (in the first geld), the other two.
+  auto starts = [&](const std::string& id) {
+    gel::v1::GetLogsRequest request;
+    request.set_job_id(id);
+    gel::v1::GetLogsResponse logs;
+    EXPECT_TRUE(stub_->GetLogs(ctx().get(), request, &logs).ok());
+    int count = 0;
+    for (const auto& line : logs.lines()) count += line.message().rfind("member 0 (seed", 0) == 0;
+    return count;
+  };
+  ASSERT_TRUE(wait_for([&] { return starts(a) + starts(b) == 3; }));
+  const std::string waiting = starts(a) == 1 ? a : b;
+  ASSERT_EQ(starts(waiting), 1);
+  gel::v1::CancelJobRequest cancel;
+  cancel.set_job_id(waiting);
+  gel::v1::Job cancelled;
+  ASSERT_TRUE(stub_->CancelJob(ctx().get(), cancel, &cancelled).ok());
+  EXPECT_EQ(cancelled.state(), gel::v1::JOB_STATE_CANCELLED);
+  EXPECT_EQ(cancelled.error(), "cancelled while running");
+  script.open();
+}
+
 TEST_F(Service, ALogUpdateNamesTheMemberItIsAbout) {
   // Member 1 logs and finishes while member 0 still runs: its LOG updates carried the job's
   // lowest unfinished member (0) instead of 1.
