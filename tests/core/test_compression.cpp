@@ -676,6 +676,28 @@ TEST_P(QuasistaticApproach, ResumeIsBitIdentical) { expect_resume_bit_identical(
 
 INSTANTIATE_TEST_SUITE_P(Compression, QuasistaticApproach, ::testing::Values("walls", "affine", "walls-then-affine"));
 
+TEST(Compression, WallSpeedsOfTheFidelitiesAreTheValidatedOnes) {
+  // MODEL.md's reference speeds (5e-4 v0 for bond 1, 1e-4 v0 for bond 2) for "paper"; the
+  // quasi-static preset keeps bond 1 at its reference and walks bond 2's walls at 4x (4e-4 v0),
+  // the speeds its 8-seed ensembles were validated at (docs/quasistatic.md). Written as numbers.
+  auto v_wall_v0 = [](const char* preset, const char* fidelity) {
+    gel::v1::Scene scene;
+    scene.set_preset(preset);
+    scene.mutable_compression()->set_fidelity(fidelity);
+    return resolve_compression_scene(scene).compression().v_wall_v0();
+  };
+  EXPECT_DOUBLE_EQ(v_wall_v0("paper-bond1", "paper"), 5e-4);
+  EXPECT_DOUBLE_EQ(v_wall_v0("paper-bond2", "paper"), 1e-4);
+  EXPECT_DOUBLE_EQ(v_wall_v0("paper-bond1", "quasistatic"), 5e-4);
+  EXPECT_DOUBLE_EQ(v_wall_v0("paper-bond2", "quasistatic"), 4e-4);
+  // An explicit speed still wins.
+  gel::v1::Scene slow;
+  slow.set_preset("paper-bond2");
+  slow.mutable_compression()->set_fidelity("quasistatic");
+  slow.mutable_compression()->set_v_wall_v0(1e-4);
+  EXPECT_DOUBLE_EQ(resolve_compression_scene(slow).compression().v_wall_v0(), 1e-4);
+}
+
 TEST(Compression, WallsThenAffineFollowsTheWallsUntilARelaxedRowSpans) {
   // The same run as "walls" up to and including the first row whose relaxed network spans (the
   // approach is decided after that row), then affine steps, so the next row differs.
