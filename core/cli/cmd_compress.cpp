@@ -518,7 +518,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--exam-ruptures", args->exam_ruptures,
                  "ruptures the equilibrium test's third criterion counts: all (default) or normal");
   sub.add_option("--approach", args->approach,
-                 "quasistatic: how the walls reach a target: walls (the dynamics' wall motion, default) or affine");
+                 "quasistatic: how the walls reach a target: walls (the dynamics' wall motion, default), affine, "
+                 "or walls-then-affine (walls until a relaxed row spans, affine steps after)");
   sub.add_option("--strain-step", args->strain_step, "quasistatic, affine: largest d ln(phi) per step (default 0.005)");
   sub.add_option("--relax-tolerance", args->relax_tolerance,
                  "quasistatic: residual force and torque/a per particle over the mean bond force (default 1e-4)");
