@@ -63,8 +63,8 @@ Fidelity fidelity_preset(const std::string& name) {
   // bond sets; without the shortcut they agree (docs/quasistatic.md). Bond 2's walls walk at 4x
   // its reference speed, 4e-4 v0, still below bond 1's 5e-4 v0: its 8-seed ensemble agrees with
   // "paper" at every target but the first, where "paper" never equilibrates, and the wall walk
-  // that dominates a bond-2 run costs 4x less. At 4x, bond 1 (2e-3 v0) came out 35-55 % low at
-  // phi 0.19-0.34, so bond 1 keeps its reference speed.
+  // that dominates a bond-2 run costs 4x less. At 4x, bond 1 (2e-3 v0) came out 20-50 % low at
+  // phi 0.19-0.34 and 9-13 % high at 0.46-0.55, so bond 1 keeps its reference speed.
   if (name == "quasistatic") return {1.0, kReferenceMExam, 1.0, false, 1.0, 0.0, true, 4.0};
   throw InvalidArgument("compression.fidelity",
                         "unknown fidelity '" + name + "' (known: fast, default, paper, quasistatic)");
