@@ -891,8 +891,11 @@ TEST_F(Service, AJobThatRanBeforeARestartIsCancelledWhileRunningNotBeforeItRan) 
 TEST_F(Service, ALogUpdateNamesTheMemberItIsAbout) {
   // Member 1 logs and finishes while member 0 still runs: its LOG updates carried the job's
   // lowest unfinished member (0) instead of 1.
-  std::atomic<bool> release{false};
-  auto executor = std::make_shared<FnExecutor>([&release](const geld::RunContext& ctx) {
+  // A LOG update is streamed, not replayed from the store: each member logs only once the
+  // watcher has its snapshot (under the sanitizers member 1 used to log before it subscribed).
+  std::atomic<bool> release{false}, subscribed{false};
+  auto executor = std::make_shared<FnExecutor>([&release, &subscribed](const geld::RunContext& ctx) {
+    while (!subscribed.load() && !ctx.stop->load()) std::this_thread::sleep_for(5ms);
     if (ctx.member == 0)
       while (!release.load() && !ctx.stop->load()) std::this_thread::sleep_for(5ms);
     ctx.log("info", "hello from member " + std::to_string(ctx.member));
@@ -906,6 +909,7 @@ TEST_F(Service, ALogUpdateNamesTheMemberItIsAbout) {
   std::vector<JobUpdate> updates;
   std::thread watcher([&] {
     updates = watch(id, nullptr, [&](const JobUpdate& u) {
+      if (u.kind() == JobUpdate::SNAPSHOT) subscribed = true;
       if (u.kind() == JobUpdate::LOG && u.message() == "member 1 finished with 1 rows") release = true;
       return true;
     });
