@@ -78,7 +78,7 @@ std::string trajectory_path(const CompressArgs& args, const std::string& dir) {
   }
   if (!args.trajectory.empty()) return args.trajectory;
   if (dir.empty()) throw gel::InvalidArgument("trajectory", "--trajectory-every needs --out or --trajectory FILE.gsd");
-  return (std::filesystem::path(dir) / "trajectory.gsd").string();
+  return gel::default_trajectory_path(dir);
 }
 
 gel::v1::Scene build_scene(const CompressArgs& args) {

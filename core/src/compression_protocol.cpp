@@ -16,7 +16,6 @@
 #include <limits>
 #include <optional>
 #include <string>
-#include <type_traits>
 #include <vector>
 
 #include "compression_internal.hpp"
@@ -96,7 +95,7 @@ RunOptions with_scene_outputs(RunOptions options, const gel::v1::Scene& scene) {
   if (options.trajectory_every <= 0 && scene.output().trajectory_every() > 0 && !options.out_dir.empty()) {
     options.trajectory_every = scene.output().trajectory_every();
     if (options.trajectory_path.empty())
-      options.trajectory_path = (std::filesystem::path(options.out_dir) / "trajectory.gsd").string();
+      options.trajectory_path = default_trajectory_path(options.out_dir);
   }
   return options;
 }
@@ -784,6 +783,10 @@ CompressionResult resume_compression(const RunOptions& options) {
     return result;
   }
   throw InvalidArgument("out_dir", problems);
+}
+
+std::string default_trajectory_path(const std::string& out_dir) {
+  return (std::filesystem::path(out_dir) / "trajectory.gsd").string();
 }
 
 }  // namespace gel

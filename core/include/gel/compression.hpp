@@ -29,6 +29,10 @@ std::string scene_to_json(const gel::v1::Scene& scene);
 // The schedule: phi_1 = w0 phi_0, phi_k = w^(k-1) phi_1, w = (phi_max/phi_1)^(1/(k'-1)).
 std::vector<double> compression_targets(double phi0, double w0, double phi_max, int steps);
 
+// A run's GSD trajectory in its output directory, whoever asks for it (gelsim's
+// --trajectory-every or the scene's output.trajectory_every).
+std::string default_trajectory_path(const std::string& out_dir);
+
 struct RunOptions {
   std::string out_dir;  // checkpoint, curve.csv/json, snapshots; empty = keep in memory only
   std::function<void(const gel::v1::Progress&)> on_progress;  // may be empty: costs nothing
