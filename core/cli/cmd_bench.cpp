@@ -21,6 +21,7 @@ struct BenchArgs {
   bool subsets = false;
   double min_seconds = 2.0;
   double v_wall = 0.01;
+  double skin = 0;  // 0: the scene default
   std::uint64_t seed = 1;
   bool json = false;
   int repeat = 1;
@@ -32,6 +33,7 @@ nlohmann::json bench_once(const BenchArgs& args, unsigned effects, int threads) 
   scene.mutable_bond()->set_preset(args.bond);
   gel::SimParams params = gel::resolve_sim_params(scene);
   params.effects = effects;
+  if (args.skin > 0) params.skin = args.skin;
   gel::System system(gel::random_network(args.particles, args.seed), params);
   system.set_threads(threads);
   if (effects & gel::kWalls) {
@@ -118,6 +120,7 @@ gelsim::Registrar bench_command("bench", "speed of the step loop (particle-steps
   sub.add_flag("--subsets", args->subsets, "run all effects and a set of subsets");
   sub.add_option("--min-seconds", args->min_seconds, "time to run each measurement")->check(CLI::PositiveNumber);
   sub.add_option("--v-wall", args->v_wall, "wall speed during the benchmark [a/t0]")->check(CLI::NonNegativeNumber);
+  sub.add_option("--skin", args->skin, "neighbour-list skin [a] (default: the scene default)")->check(CLI::PositiveNumber);
   sub.add_option("--seed", args->seed, "seed of the network");
   sub.add_flag("--json", args->json, "print one JSON object");
   sub.add_option("--threads", args->threads, "engine threads; several (1,2,4): a scaling table")
