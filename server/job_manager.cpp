@@ -256,8 +256,7 @@ bool valid_utf8(std::string_view text) {
 }
 }  // namespace
 
-gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& request) {
-  if (shutting_down_) throw unavailable();
+Engine::Prepared JobManager::validated(const gel::v1::SubmitJobRequest& request) {
   // Seed 0 means "the default" in a scene and resolves to 1: in a list it would run seed 1 while
   // being recorded as 0, and {0, 1} would give two identical members.
   for (int i = 0; i < request.seeds_size(); ++i)
@@ -298,6 +297,24 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
     for (const std::uint64_t seed : request.seeds())
       prepared.parameters.emplace_back("generator.seed", std::to_string(seed), static_cast<double>(seed));
   }
+  return prepared;
+}
+
+void JobManager::validate(const gel::v1::SubmitJobRequest& request) { validated(request); }
+
+std::string JobManager::program_version() { return engine_->program_version(); }
+
+std::string JobManager::member_dir(const gel::v1::Job& job, int member) const {
+  const std::uint64_t seed = member < job.seeds_size() ? job.seeds(member) : job.scene().generator().seed();
+  // Built with append: GCC 12's -Wrestrict misfires on "m" + std::to_string(...).
+  std::string name("m");
+  name.append(std::to_string(member)).append("-seed").append(std::to_string(seed));
+  return (fs::absolute(options_.data_dir) / job.out_dir() / name).string();
+}
+
+gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& request) {
+  if (shutting_down_) throw unavailable();
+  Engine::Prepared prepared = validated(request);
   // Run cache: the same resolved scene, seeds and program give the same bits (the engine is
   // deterministic), so an identical submission gets the job that already has them.
   // The key leaves out what does not change a bit of the result: the engine threads (runs are
@@ -876,10 +893,7 @@ void JobManager::run_member(const std::shared_ptr<Live>& live, int member) {
       ctx.scene = job.scene();
       ctx.scene.mutable_generator()->set_seed(seed);
       ctx.scene_json = engine_->scene_json(ctx.scene);
-      // Built with append: GCC 12's -Wrestrict misfires on "m" + std::to_string(...).
-      std::string member_dir("m");
-      member_dir.append(std::to_string(member)).append("-seed").append(std::to_string(seed));
-      ctx.out_dir = (fs::absolute(options_.data_dir) / job.out_dir() / member_dir).string();
+      ctx.out_dir = member_dir(job, member);
       fs::create_directories(ctx.out_dir);
       ctx.stop = &live->stop;
       ctx.cancel = &live->cancel_requested;

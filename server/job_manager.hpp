@@ -94,6 +94,12 @@ class JobManager {
   bool shutting_down() const { return shutting_down_.load(); }
 
   gel::v1::SubmitJobResponse submit(const gel::v1::SubmitJobRequest& request);
+  // Every check submit() makes (fields, limits, the engine's validation of the scene), without
+  // storing anything: throws the ApiError submit() would.
+  void validate(const gel::v1::SubmitJobRequest& request);
+  std::string program_version();
+  // The directory of a member's files (checkpoint, curve, snapshots) on this machine.
+  std::string member_dir(const gel::v1::Job& job, int member) const;
   gel::v1::Job get(const std::string& id);
   gel::v1::Job cancel(const std::string& id);
   gel::v1::ListJobsResponse list(const gel::v1::ListJobsRequest& request);
@@ -132,6 +138,7 @@ class JobManager {
     std::atomic<bool> stop{false};
   };
 
+  Engine::Prepared validated(const gel::v1::SubmitJobRequest& request);
   void worker_loop();
   void run_member(const std::shared_ptr<Live>& live, int member);
   void finish_if_done(const std::shared_ptr<Live>& live);

@@ -203,6 +203,41 @@ grpc::Status GelServiceImpl::GetAnalysis(grpc::ServerContext* context, const gel
   return guarded(context, "GetAnalysis", [&] { *response = manager_.analysis(*request); });
 }
 
+grpc::Status GelServiceImpl::SubmitStudy(grpc::ServerContext* context, const gel::v1::SubmitStudyRequest* request,
+                                         gel::v1::SubmitStudyResponse* response) {
+  return guarded(context, "SubmitStudy", [&] { *response = studies_.submit(*request); });
+}
+
+grpc::Status GelServiceImpl::GetStudy(grpc::ServerContext* context, const gel::v1::GetStudyRequest* request,
+                                      gel::v1::Study* response) {
+  return guarded(context, "GetStudy", [&] { *response = studies_.get(request->study_id()); });
+}
+
+grpc::Status GelServiceImpl::ListStudies(grpc::ServerContext* context, const gel::v1::ListStudiesRequest* request,
+                                         gel::v1::ListStudiesResponse* response) {
+  return guarded(context, "ListStudies", [&] { *response = studies_.list(*request); });
+}
+
+grpc::Status GelServiceImpl::WatchStudy(grpc::ServerContext* context, const gel::v1::WatchStudyRequest* request,
+                                        grpc::ServerWriter<gel::v1::StudyUpdate>* writer) {
+  return guarded(context, "WatchStudy", [&] {
+    studies_.watch(
+        request->study_id(), [&](const gel::v1::StudyUpdate& update) { return writer->Write(update); },
+        [&] { return context->IsCancelled(); });
+  });
+}
+
+grpc::Status GelServiceImpl::CancelStudy(grpc::ServerContext* context, const gel::v1::CancelStudyRequest* request,
+                                         gel::v1::Study* response) {
+  return guarded(context, "CancelStudy", [&] { *response = studies_.cancel(request->study_id()); });
+}
+
+grpc::Status GelServiceImpl::GetStudyAnalysis(grpc::ServerContext* context,
+                                              const gel::v1::GetStudyAnalysisRequest* request,
+                                              gel::v1::GetStudyAnalysisResponse* response) {
+  return guarded(context, "GetStudyAnalysis", [&] { *response = studies_.analysis(*request); });
+}
+
 bool is_loopback_address(const std::string& host_port) {
   std::string host = host_port;
   if (!host.empty() && host.front() == '[') {
@@ -220,6 +255,7 @@ bool is_loopback_address(const std::string& host_port) {
 Daemon::Daemon(DaemonOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor)
     : options_(std::move(options)) {
   manager_ = std::make_unique<JobManager>(options_.manager, std::move(engine), std::move(executor));
+  studies_ = std::make_unique<StudyManager>(*manager_);
 }
 
 Daemon::~Daemon() { shutdown(); }
@@ -249,7 +285,7 @@ void Daemon::start() {
   }
   manager_->start();
   auto auth = std::make_shared<const TokenCheck>(options_.token);
-  service_ = std::make_unique<GelServiceImpl>(*manager_, auth);
+  service_ = std::make_unique<GelServiceImpl>(*manager_, *studies_, auth);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;

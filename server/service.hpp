@@ -11,6 +11,7 @@
 #include "executor.hpp"
 #include "gel/v1/service.grpc.pb.h"
 #include "job_manager.hpp"
+#include "study_manager.hpp"
 
 namespace geld {
 
@@ -28,8 +29,8 @@ class TokenCheck {
 
 class GelServiceImpl final : public gel::v1::GelService::Service {
  public:
-  GelServiceImpl(JobManager& manager, std::shared_ptr<const TokenCheck> auth)
-      : manager_(manager), auth_(std::move(auth)) {}
+  GelServiceImpl(JobManager& manager, StudyManager& studies, std::shared_ptr<const TokenCheck> auth)
+      : manager_(manager), studies_(studies), auth_(std::move(auth)) {}
 
   grpc::Status SubmitJob(grpc::ServerContext* context, const gel::v1::SubmitJobRequest* request,
                          gel::v1::SubmitJobResponse* response) override;
@@ -49,12 +50,25 @@ class GelServiceImpl final : public gel::v1::GelService::Service {
                        gel::v1::GetLogsResponse* response) override;
   grpc::Status GetAnalysis(grpc::ServerContext* context, const gel::v1::GetAnalysisRequest* request,
                            gel::v1::GetAnalysisResponse* response) override;
+  grpc::Status SubmitStudy(grpc::ServerContext* context, const gel::v1::SubmitStudyRequest* request,
+                           gel::v1::SubmitStudyResponse* response) override;
+  grpc::Status GetStudy(grpc::ServerContext* context, const gel::v1::GetStudyRequest* request,
+                        gel::v1::Study* response) override;
+  grpc::Status ListStudies(grpc::ServerContext* context, const gel::v1::ListStudiesRequest* request,
+                           gel::v1::ListStudiesResponse* response) override;
+  grpc::Status WatchStudy(grpc::ServerContext* context, const gel::v1::WatchStudyRequest* request,
+                          grpc::ServerWriter<gel::v1::StudyUpdate>* writer) override;
+  grpc::Status CancelStudy(grpc::ServerContext* context, const gel::v1::CancelStudyRequest* request,
+                           gel::v1::Study* response) override;
+  grpc::Status GetStudyAnalysis(grpc::ServerContext* context, const gel::v1::GetStudyAnalysisRequest* request,
+                                gel::v1::GetStudyAnalysisResponse* response) override;
 
  private:
   template <class F>
   grpc::Status guarded(grpc::ServerContext* context, const char* method, F&& body);
 
   JobManager& manager_;
+  StudyManager& studies_;
   std::shared_ptr<const TokenCheck> auth_;
 };
 
@@ -89,10 +103,12 @@ class Daemon {
   // Stops taking work (UNAVAILABLE), checkpoints running jobs, stops the server. Idempotent.
   void shutdown();
   JobManager& manager() { return *manager_; }
+  StudyManager& studies() { return *studies_; }
 
  private:
   DaemonOptions options_;
   std::unique_ptr<JobManager> manager_;
+  std::unique_ptr<StudyManager> studies_;
   std::unique_ptr<GelServiceImpl> service_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;

@@ -2,7 +2,7 @@
 // The daemon's durable state: one SQLite file in WAL mode. Every write is a committed
 // transaction before the call returns, so anything acknowledged to a client survives a crash.
 //
-// Schema (version 4; migrations run from the `schema_version` table on open):
+// Schema (version 6; migrations run from the `schema_version` table on open):
 //   schema_version(version)                          one row: the schema's version
 //   jobs(seq PK autoincrement, id UNIQUE, name, state, scene BLOB (resolved gel.v1.Scene),
 //        scene_json, seeds (JSON array), particles, bond_preset, created_ms, started_ms,
@@ -21,6 +21,12 @@
 //                                                    executor's handle (e.g. Slurm job id)
 //   member_finished(job_id, member, finished_ms)     PK (job_id, member); members that finished
 //                                                    (members of a job run in parallel)
+//   studies(seq PK autoincrement, id UNIQUE, name, preset, fidelity, request BLOB
+//           (gel.v1.SubmitStudyRequest, preset expanded), created_ms, program_version)
+//   study_labels(study_id, key, value)               PK (study_id, key)
+//   study_jobs(study_id, position, ensemble, job_id, cached)  PK (study_id, position): one job
+//                                                    per ensemble, recorded as it is submitted
+//   study_analyses(study_id, options, json, seconds, created_ms)  PK (study_id, options)
 #include <cstdint>
 #include <mutex>
 #include <optional>
@@ -67,6 +73,11 @@ struct CurveFilter {
   int limit = 100;
 };
 
+struct StoredAnalysis {
+  std::string json;
+  double seconds = 0;
+};
+
 struct StoredRow {
   int member = 0;
   std::uint64_t seed = 0;
@@ -75,7 +86,7 @@ struct StoredRow {
 
 class Store {
  public:
-  static constexpr int kSchemaVersion = 5;
+  static constexpr int kSchemaVersion = 6;
 
   explicit Store(const std::string& path);
   ~Store();
@@ -119,6 +130,18 @@ class Store {
   int row_count(const std::string& id);
   std::vector<gel::v1::LogLine> logs(const std::string& id, std::int64_t after_id, int limit);
   std::vector<std::pair<std::string, std::int64_t>> states(const std::string& id);  // (state, at_ms)
+
+  // Studies. insert_study assigns the id ("study-000001") and stores the request and labels;
+  // the jobs are added one by one as they are submitted. Read back, a study holds its stored
+  // fields and its jobs' ensemble, id and cached flag (their states are the jobs' own).
+  std::string insert_study(gel::v1::Study& study);
+  void add_study_job(const std::string& study_id, int position, const std::string& ensemble, const std::string& job_id,
+                     bool cached);
+  std::optional<gel::v1::Study> get_study(const std::string& id);
+  std::vector<std::pair<std::int64_t, gel::v1::Study>> list_studies(std::int64_t before_seq, int limit);  // newest first
+  std::optional<StoredAnalysis> study_analysis(const std::string& study_id, const std::string& options);
+  void put_study_analysis(const std::string& study_id, const std::string& options, const std::string& json,
+                          double seconds, std::int64_t now_ms);
 
   static std::string state_name(gel::v1::JobState state);  // "queued", "running", ...
   static gel::v1::JobState state_from_name(const std::string& name);
