@@ -9,7 +9,7 @@ import grpc
 
 from . import curves
 from .errors import error_from_rpc
-from .messages import job_to_dict, message_to_dict, update_to_dict
+from .messages import job_to_dict, message_to_dict, state_name, update_to_dict
 from .v1 import scene_pb2, service_pb2, service_pb2_grpc
 
 DEFAULT_ADDRESS = "127.0.0.1:50051"
@@ -156,6 +156,14 @@ def _query_labels(labels):
             raise ValueError(f"query_curves: label {label!r} is not key=value")
         plain[key] = value
     return plain
+
+
+def _study_to_dict(study):
+    out = message_to_dict(study)
+    out["state"] = state_name(study.state)
+    for job, entry in zip(study.jobs, out.get("jobs", [])):
+        entry["state"] = state_name(job.state)
+    return out
 
 
 class Client:
@@ -358,6 +366,71 @@ class Client:
             columns[name] = values["mean"]
             columns[name + "_std"] = values["std"]
         return pandas.DataFrame(columns)
+
+    def submit_study(self, preset=None, *, ensembles=None, seeds=None, fidelity=None, name="", labels=None, rerun=False):
+        """Submit a study (SubmitStudy, gelctl study submit); returns its id ("study-000001").
+
+        preset: a built-in study, "paper" (bond 1 and bond 2 at paper size, 10 seeds, fidelity
+          quasistatic) or "quick" (both bonds on the quick scene, 3 seeds); or
+        ensembles: {name: scene} with scenes as submit() takes them as dicts or preset names,
+          e.g. {"bond1": {"preset": "quick"}, "bond2": {"preset": "quick", "bond": {"preset": "bond2"}}}.
+        seeds: seeds 1..N for every ensemble (default: the preset's; without a preset, each
+          scene's own seed). fidelity: the preset's fidelity. name, labels, rerun: as submit()."""
+        request = service_pb2.SubmitStudyRequest(name=name or (preset or ""), labels=labels or {}, rerun=rerun,
+                                                 preset=preset or "", fidelity=fidelity or "",
+                                                 seed_count=int(seeds or 0))
+        for ensemble_name, scene in (ensembles or {}).items():
+            scene_dict = {"preset": scene} if isinstance(scene, str) else copy.deepcopy(scene)
+            request.ensembles.add(name=ensemble_name, scene_json=json.dumps(scene_dict, default=_json_number))
+        return self._call(self._stub.SubmitStudy, request).study_id
+
+    def study(self, study_id):
+        """A study as a dict (the gel.v1.Study message's fields): id, name, preset, state, jobs
+        (per ensemble: ensemble, job_id, state, members, members_finished, rows, cached), error, ..."""
+        study = self._call(self._stub.GetStudy, service_pb2.GetStudyRequest(study_id=study_id))
+        return _study_to_dict(study)
+
+    def studies(self):
+        """Every study, newest first, as study()'s dicts."""
+        request = service_pb2.ListStudiesRequest(page_size=1000)
+        found = []
+        while True:
+            response = self._call(self._stub.ListStudies, request)
+            found.extend(_study_to_dict(study) for study in response.studies)
+            if not response.next_page_token:
+                return found
+            request.page_token = response.next_page_token
+
+    def cancel_study(self, study_id):
+        """Cancel the study's jobs that have not ended; returns the study (dict)."""
+        return _study_to_dict(self._call(self._stub.CancelStudy, service_pb2.CancelStudyRequest(study_id=study_id)))
+
+    def watch_study(self, study_id):
+        """Follow a study until every job has ended: yields dicts with "ensemble", "job_id", and
+        either "study" (the study as a dict: first, on every job's state change, and last) or
+        "update" (the job's update as watch() gives it)."""
+        stream = self._stub.WatchStudy(service_pb2.WatchStudyRequest(study_id=study_id), metadata=self._metadata)
+        try:
+            for update in stream:
+                out = {"ensemble": update.ensemble, "job_id": update.job_id}
+                if update.HasField("study"):
+                    out["study"] = _study_to_dict(update.study)
+                if update.HasField("update"):
+                    out["update"] = update_to_dict(update.update)
+                yield out
+        except grpc.RpcError as error:
+            raise error_from_rpc(error, self.address) from None
+        finally:
+            stream.cancel()
+
+    def study_analysis(self, study_id, *, include_unequilibrated=False, bootstrap_samples=0, partial=False):
+        """The study's analysis (GetStudyAnalysis) as a dict, format gel.study-analysis.v1
+        (docs/study_analysis.md): per ensemble every observable as {"value", "lo", "hi", "n"}, the
+        95 % bootstrap interval over seeds and the number of seeds. A study that has not
+        succeeded raises gel.GelError (FAILED_PRECONDITION) unless partial."""
+        request = service_pb2.GetStudyAnalysisRequest(study_id=study_id, include_unequilibrated=include_unequilibrated,
+                                                      bootstrap_samples=bootstrap_samples, partial=partial)
+        return json.loads(self._call(self._stub.GetStudyAnalysis, request).json)
 
     def logs(self, job_id):
         """The job's log lines as dicts: id, unix_ms, level, message."""
