@@ -201,29 +201,6 @@ except gel.GelError as error:
     assert error.code == "FAILED_PRECONDITION", error
 print(f"ok: analysis {small}: 2 members, row means equal to the members' mean")
 
-# Studies: two tiny ensembles as one unit, followed to the end, and their analysis with intervals.
-tiny = {"preset": "quick", "generator": {"n_floc": 8, "n_clusters": 8, "lx": 30, "ly": 50},
-        "compression": {"fidelity": "fast", "steps": 3}}
-study_id = client.submit_study(ensembles={"bond1": tiny, "bond2": dict(tiny, bond={"preset": "bond2"})}, seeds=3,
-                               name="python-study", rerun=True)
-assert study_id.startswith("study-"), study_id
-seen = [update for update in client.watch_study(study_id)]
-assert "study" in seen[0] and seen[-1]["study"]["state"] == "succeeded", (seen[0], seen[-1])
-assert {u["ensemble"] for u in seen if "update" in u and u["update"]["type"] == "row"} == {"bond1", "bond2"}
-study = client.study(study_id)
-assert study["state"] == "succeeded" and [job["ensemble"] for job in study["jobs"]] == ["bond1", "bond2"], study
-assert study_id in [s["id"] for s in client.studies()]
-result = client.study_analysis(study_id, bootstrap_samples=100)
-assert result["format"] == "gel.study-analysis.v1", result.get("format")
-for ensemble in result["ensembles"]:
-    assert ensemble["members"] == 3 and ensemble["rows"][-1]["P"]["n"] == 3, ensemble["rows"][-1]
-try:
-    client.cancel_study(study_id)
-    raise SystemExit("FAIL: cancelling a study that has ended")
-except gel.GelError as error:
-    assert error.code == "FAILED_PRECONDITION", error
-print(f"ok: study {study_id}: 2 ensembles x 3 seeds, watched to the end, analysed with intervals")
-
 # QueryCurves: two more jobs, other labels and seeds (queued behind each other on the one worker).
 small_overrides = {"generator.n_floc": 8, "generator.n_clusters": 8, "generator.lx": 30, "generator.ly": 50,
                    "compression.steps": 3}
@@ -367,6 +344,29 @@ try:
 except gel.InvalidRequestError as error:
     assert "scene.preset" in str(error), error
 print("ok: an unknown job id raises JobNotFoundError naming it; a bad preset InvalidRequestError")
+
+# Studies: two tiny ensembles as one unit, followed to the end, and their analysis with intervals.
+tiny = {"preset": "quick", "generator": {"n_floc": 8, "n_clusters": 8, "lx": 30, "ly": 50},
+        "compression": {"fidelity": "fast", "steps": 3}}
+study_id = client.submit_study(ensembles={"bond1": tiny, "bond2": dict(tiny, bond={"preset": "bond2"})}, seeds=3,
+                               name="python-study", rerun=True)
+assert study_id.startswith("study-"), study_id
+seen = [update for update in client.watch_study(study_id)]
+assert "study" in seen[0] and seen[-1]["study"]["state"] == "succeeded", (seen[0], seen[-1])
+assert {u["ensemble"] for u in seen if "update" in u and u["update"]["type"] == "row"} == {"bond1", "bond2"}
+study = client.study(study_id)
+assert study["state"] == "succeeded" and [job["ensemble"] for job in study["jobs"]] == ["bond1", "bond2"], study
+assert study_id in [s["id"] for s in client.studies()]
+result = client.study_analysis(study_id, bootstrap_samples=100)
+assert result["format"] == "gel.study-analysis.v1", result.get("format")
+for ensemble in result["ensembles"]:
+    assert ensemble["members"] == 3 and ensemble["rows"][-1]["P"]["n"] == 3, ensemble["rows"][-1]
+try:
+    client.cancel_study(study_id)
+    raise SystemExit("FAIL: cancelling a study that has ended")
+except gel.GelError as error:
+    assert error.code == "FAILED_PRECONDITION", error
+print(f"ok: study {study_id}: 2 ensembles x 3 seeds, watched to the end, analysed with intervals")
 PY
 
 kill -TERM "$geld_pid"
