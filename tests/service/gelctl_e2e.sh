@@ -5,6 +5,7 @@
 #   bad input: exit codes and one-line messages, and the daemon keeps serving
 #   a job the engine fails (numerical instability): watch exits 3 (as for a cancelled job)
 #   SIGKILL mid-job, restart: the job resumes and ends with the curve of an uninterrupted run
+#   studies: study submit --file --watch, list, show, analysis, refusals
 #   remote mode: --listen 0.0.0.0 needs --token-file; calls without the token UNAUTHENTICATED
 #
 #   gelctl_e2e.sh BUILD_DIR
@@ -129,6 +130,37 @@ expect 2 "seeds" -- ctl submit --preset quick --seeds 3-1
 expect 2 "submit" -- ctl submit
 ctl status "$job" >/dev/null || fail "geld stopped serving after bad input"
 echo "ok: bad input gets exit 2/1 with the status code and the field"
+
+# ---- studies: submit --file --watch, list, show, analysis, refusals ------------------------
+cat >"$work/study.json" <<'JSON'
+{"name": "e2e-study", "seed_count": 3, "rerun": true,
+ "ensembles": [
+  {"name": "bond1", "scene_json": "{\"preset\": \"quick\", \"generator\": {\"n_floc\": 8, \"n_clusters\": 8, \"lx\": 30, \"ly\": 50}, \"compression\": {\"fidelity\": \"fast\", \"steps\": 3}}"},
+  {"name": "bond2", "scene_json": "{\"preset\": \"quick\", \"bond\": {\"preset\": \"bond2\"}, \"generator\": {\"n_floc\": 8, \"n_clusters\": 8, \"lx\": 30, \"ly\": 50}, \"compression\": {\"fidelity\": \"fast\", \"steps\": 3}}"}]}
+JSON
+ctl study submit --file "$work/study.json" --label suite=e2e --watch >"$work/study_watch.txt" || fail "study submit --watch"
+study=$(head -n 1 "$work/study_watch.txt")
+[[ $study =~ ^study-[0-9]+$ ]] || fail "first line of study submit is not a study id: $study"
+grep -q "^\[bond1\] seed 3  k 3 " "$work/study_watch.txt" || fail "study watch lacks bond1's rows: $(cat "$work/study_watch.txt")"
+grep -q "^\[bond2\] seed 1  k 0 " "$work/study_watch.txt" || fail "study watch lacks bond2's rows"
+grep -q "^$study: succeeded" "$work/study_watch.txt" || fail "study watch did not end with success"
+ctl study list | grep -qE "^$study +succeeded +e2e-study +2 " || fail "study list does not show $study: $(ctl study list)"
+shown=$(ctl study show "$study") || fail "study show"
+grep -qE "^  bond2 +job-[0-9]+ +succeeded +3/3 +12 " <<<"$shown" || fail "study show: $shown"
+ctl study analysis "$study" | grep -q "^bond1: 3 seeds" || fail "study analysis summary"
+ctl study analysis "$study" --json --bootstrap-samples 100 >"$work/study_analysis.json" || fail "study analysis --json"
+$py - "$work/study_analysis.json" <<'PY' || fail "study analysis --json"
+import json, sys
+analysis = json.load(open(sys.argv[1]))
+assert analysis["format"] == "gel.study-analysis.v1" and analysis["bootstrap_samples"] == 100, analysis["format"]
+assert [e["name"] for e in analysis["ensembles"]] == ["bond1", "bond2"]
+assert all(e["members"] == 3 and len(e["rows"]) == 4 for e in analysis["ensembles"])
+PY
+expect 1 "FAILED_PRECONDITION: study $study has already ended" -- ctl study cancel "$study"
+expect 1 "NOT_FOUND" -- ctl study show study-424242
+expect 2 "INVALID_ARGUMENT: preset: unknown study preset" -- ctl study submit --preset nope
+expect 2 "give --preset or --file" -- ctl study submit
+echo "ok: study submit --file --watch, list, show, analysis, refusals ($study)"
 
 # ---- cancel a running job ------------------------------------------------------------------
 long=$(ctl submit --preset quick --seed 5) || fail "submit of the job to cancel"
