@@ -26,6 +26,9 @@ struct StudyPresetOptions {
 //   (scene presets paper-bond1, paper-bond2), 10 seeds each, fidelity quasistatic: the
 //   quasi-static method reproduced the paper protocol's ensemble means (docs/quasistatic.md)
 //   at a fraction of its cost.
+// "small": both bonds on the 1408-particle gel (150 x 250 a, 22 flocs of 64) on which
+//   docs/quasistatic.md validated the quasi-static method, 10 seeds, fidelity quasistatic: a
+//   few minutes a run, for a first look at the observables and their scatter.
 // "quick": both bonds on the quick scene, 3 seeds each, about a minute on one core: for
 //   trying the study machinery, not for science.
 // Throws InvalidArgument ("preset", "seed_count", "fidelity").
