@@ -257,7 +257,7 @@ const gelctl::Registrar study_registrar{
       auto args = std::make_shared<StudyArgs>();
       sub.require_subcommand(1);
       CLI::App* submit = sub.add_subcommand("submit", "Submit a study; prints its id on the first line");
-      submit->add_option("--preset", args->preset, "Built-in study: paper (bond 1 and 2 at paper size) or quick");
+      submit->add_option("--preset", args->preset, "Built-in study: paper (bond 1 and 2 at paper size), small (the 1408-particle gel) or quick");
       submit->add_option("--file", args->study_file, "A gel.v1.SubmitStudyRequest in JSON (explicit ensembles)");
       submit->add_option("--seeds", args->seeds, "Seeds 1..N per ensemble (default: the preset's)")
           ->check(CLI::Range(1, 1000));

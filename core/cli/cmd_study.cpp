@@ -193,7 +193,7 @@ int run_study(const StudyArgs& args) {
 
 gelsim::Registrar study_command("study", "a built-in study (e.g. the paper's): run, resume and analyse", [](CLI::App& sub) {
   auto args = std::make_shared<StudyArgs>();
-  sub.add_option("--preset", args->preset, "built-in study (paper, quick; default paper)");
+  sub.add_option("--preset", args->preset, "built-in study (paper, small, quick; default paper)");
   sub.add_option("--out", args->out, "directory of the study: OUT/<ensemble>/seed_<seed>, OUT/study_analysis.json");
   sub.add_option("--seeds", args->seeds, "seeds 1..N per ensemble (default: the preset's)")->check(CLI::Range(1, 1000));
   sub.add_option("--fidelity", args->fidelity, "the preset's fidelity (fast, default, paper, quasistatic)");

@@ -2068,7 +2068,7 @@ TEST_F(Service, ABadStudyIsRefusedNamingTheFieldAndStoresNothing) {
   refused(both, grpc::StatusCode::INVALID_ARGUMENT, "ensembles: give a preset or ensembles, not both");
   gel::v1::SubmitStudyRequest unknown;
   unknown.set_preset("nope");
-  refused(unknown, grpc::StatusCode::INVALID_ARGUMENT, "preset: unknown study preset 'nope' (known: paper, quick)");
+  refused(unknown, grpc::StatusCode::INVALID_ARGUMENT, "preset: unknown study preset 'nope' (known: paper, small, quick)");
   unknown.set_preset("quick");
   unknown.set_fidelity("slowest");
   refused(unknown, grpc::StatusCode::INVALID_ARGUMENT, "compression.fidelity: unknown fidelity 'slowest'");
