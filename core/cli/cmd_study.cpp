@@ -2,6 +2,7 @@
 //   gelsim study --preset paper --out runs/paper --jobs 2          (run, resume, analyse)
 //   gelsim study --preset quick --seeds 2 --out runs/q --fidelity fast
 //   gelsim study --out runs/paper --analyse-only                   (analysis of what finished)
+//   gelsim study --file study.json --out runs/mine                (explicit ensembles)
 //   gelsim study --list-presets
 // Members of every ensemble share one work list, `--jobs` at a time, each in
 // OUT/<ensemble>/seed_<seed>; a finished member is never run again and an interrupted one
@@ -24,6 +25,7 @@
 #include "command.hpp"
 #include "gel/analysis/study_analysis.hpp"
 #include "gel/compression.hpp"
+#include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
 #include "gel/study.hpp"
@@ -37,6 +39,7 @@ extern "C" void request_study_stop(int) { g_study_stop.store(true); }
 
 struct StudyArgs {
   std::string preset = "paper";
+  std::string file;  // explicit ensembles instead of a preset
   std::string out;
   std::string fidelity;
   int seeds = 0;
@@ -56,6 +59,40 @@ bool finished_run(const std::string& dir) {
   if (!fs::exists(fs::path(dir) / "curve.json")) return false;
   const gel::v1::Curve curve = gel::read_curve(dir);
   return curve.rows_size() > 0 && curve.rows(curve.rows_size() - 1).k() == curve.scene().compression().steps();
+}
+
+// {"ensembles": [{"name": "bond1", "scene": {...}, "seeds": [1, 2, 3]}, ...]}: the shape of the
+// study.json that a study directory keeps. Seeds may be left out when --seeds N is given.
+std::vector<gel::StudyEnsembleSpec> read_study_file(const StudyArgs& args) {
+  if (!args.fidelity.empty()) throw gel::InvalidArgument("--fidelity", "applies to a preset; set it in each scene of --file");
+  nlohmann::json study;
+  try {
+    study = nlohmann::json::parse(gel::read_file(args.file));
+  } catch (const nlohmann::json::exception& e) {
+    throw gel::InvalidArgument("--file", args.file + " is not JSON: " + e.what());
+  }
+  if (!study.contains("ensembles") || !study.at("ensembles").is_array() || study.at("ensembles").empty())
+    throw gel::InvalidArgument("--file", "needs a non-empty \"ensembles\" list");
+  std::vector<gel::StudyEnsembleSpec> ensembles;
+  for (std::size_t e = 0; e < study.at("ensembles").size(); ++e) {
+    const nlohmann::json& entry = study.at("ensembles")[e];
+    const std::string field = "--file: ensembles[" + std::to_string(e) + "]";
+    gel::StudyEnsembleSpec spec;
+    spec.name = entry.value("name", std::string());
+    gel::validate_ensemble_name(spec.name, field + ".name");
+    for (const auto& other : ensembles)
+      if (other.name == spec.name) throw gel::InvalidArgument(field + ".name", "'" + spec.name + "' appears twice");
+    if (!entry.contains("scene") || !entry.at("scene").is_object()) throw gel::InvalidArgument(field + ".scene", "missing");
+    spec.scene = gel::scene_from_json(entry.at("scene").dump());
+    if (entry.contains("seeds")) spec.seeds = entry.at("seeds").get<std::vector<std::uint64_t>>();
+    if (spec.seeds.empty())
+      for (int s = 1; s <= args.seeds; ++s) spec.seeds.push_back(static_cast<std::uint64_t>(s));
+    if (spec.seeds.empty()) throw gel::InvalidArgument(field + ".seeds", "none given (list them, or give --seeds N)");
+    for (const std::uint64_t seed : spec.seeds)
+      if (seed == 0) throw gel::InvalidArgument(field + ".seeds", "0 is not a seed; seeds start at 1");
+    ensembles.push_back(std::move(spec));
+  }
+  return ensembles;
 }
 
 int run_study(const StudyArgs& args) {
@@ -82,8 +119,8 @@ int run_study(const StudyArgs& args) {
     }
   } else {
     if (args.analyse_only) throw gel::InvalidArgument("--out", args.out + " holds no study (study.json)");
-    ensembles = gel::study_preset(args.preset, {args.seeds, args.fidelity});
-    nlohmann::json stored = {{"preset", args.preset}, {"ensembles", nlohmann::json::array()}};
+    ensembles = args.file.empty() ? gel::study_preset(args.preset, {args.seeds, args.fidelity}) : read_study_file(args);
+    nlohmann::json stored = {{"preset", args.file.empty() ? args.preset : ""}, {"ensembles", nlohmann::json::array()}};
     for (auto& spec : ensembles) {
       spec.scene = gel::resolve_compression_scene(spec.scene);
       stored["ensembles"].push_back(
@@ -194,6 +231,7 @@ int run_study(const StudyArgs& args) {
 gelsim::Registrar study_command("study", "a built-in study (e.g. the paper's): run, resume and analyse", [](CLI::App& sub) {
   auto args = std::make_shared<StudyArgs>();
   sub.add_option("--preset", args->preset, "built-in study (paper, small, quick; default paper)");
+  sub.add_option("--file", args->file, "explicit ensembles: {\"ensembles\": [{\"name\", \"scene\", \"seeds\"}]} (instead of --preset)");
   sub.add_option("--out", args->out, "directory of the study: OUT/<ensemble>/seed_<seed>, OUT/study_analysis.json");
   sub.add_option("--seeds", args->seeds, "seeds 1..N per ensemble (default: the preset's)")->check(CLI::Range(1, 1000));
   sub.add_option("--fidelity", args->fidelity, "the preset's fidelity (fast, default, paper, quasistatic)");
