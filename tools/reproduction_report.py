@@ -665,8 +665,13 @@ def observables_table(ensembles):
                        ("single_to_multi_mode_phi", "single → multi-mode boundary φ")):
         cells = []
         for e in ensembles:
-            estimate = as_dict(e.get("regimes")).get(key)
-            cells.append((est(estimate), seeds_of(estimate)))
+            regimes = as_dict(e.get("regimes"))
+            estimate = regimes.get(key)
+            text = est(estimate)
+            if key == "elastic_to_plastic_phi" and regimes.get("elastic_to_plastic_at_first_trusted_row"):
+                # The first row that can be trusted already dissipated as much as it stores.
+                text = "≤ " + text + " (the first trusted row: the elastic regime lies below the rows at equilibrium)"
+            cells.append((text, seeds_of(estimate)))
         add(label, "", cells)
     for key, label in (("all", "all trusted rows"),) + REGIMES:
         add(f"λ, P_y = C φ^λ: {label}", "", [fit_exponent(fit_of(e, key)) for e in ensembles])

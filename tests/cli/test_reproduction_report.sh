@@ -82,6 +82,7 @@ bond1["structure_seconds"] = 3.5
 bond2, _ = ensemble("bond2", [5, 6], 0.12, 8, (0.2, 9.0), 2)
 bond2["intervals"] = None
 bond2["regimes"] = {"elastic_to_plastic_phi": {"value": 0.2, "lo": None, "hi": None, "n": 2}, "single_to_multi_mode_phi": None,
+                    "elastic_to_plastic_at_first_trusted_row": True,
                     "rule": "elastic -> plastic where the dissipated energy reaches the stored energy"}
 bond2["power_law"] = {"all": {"exponent": {"value": 3.9, "lo": None, "hi": None, "n": 2, "resamples": 0,
                                            "resamples_with_value": 0},
@@ -123,6 +124,7 @@ MD="$WORK/report/reproduction.md"
 grep -q "^| observable | unit | bond1 | seeds | bond2 | seeds |" "$MD" || fail "no observables table with both ensembles"
 grep -q "4.26 \[4.1, 4.4\]" "$MD" || fail "the exponent of all rows is not printed as 4.26 [4.1, 4.4]"
 grep -q "0.21 \[0.2, 0.225\]" "$MD" || fail "the elastic -> plastic boundary is not printed with its interval"
+grep -q "≤ 0.2 (no interval: 2 seeds) (the first trusted row" "$MD" || fail "a boundary at the first trusted row is not marked as an upper bound"
 grep -q "0.0913 \[0.08, 0.1\]" "$MD" || fail "phi_g is not printed with its interval"
 grep -q "— (fewer than 3 trusted rows below the single -> multi-mode boundary)" "$MD" \
   || fail "the missing gel point of bond2 is not a dash with its reason"

@@ -98,8 +98,9 @@ std::string regime_rule(double multi_mode_fraction) {
              "elastic -> plastic: the first trusted row (k >= 1) where the mean cumulative dissipated energy is >= the "
              "mean cumulative stored energy, its phi interpolated linearly in ln phi between it and the previous trusted "
              "row, where stored - dissipated changes sign (that row's own phi when no trusted row precedes it); "
-             "single -> multi-mode: phi_lo of the first trusted interval at or above that boundary where the mean "
-             "normal-break rate gamma_normal is > 0 and >= ") +
+             "single -> multi-mode: phi_lo of the first trusted interval at or above that boundary from which every "
+             "trusted interval has a mean normal-break rate gamma_normal > 0 (where normal breaks begin and go on), "
+             "the first one's also >= ") +
          fraction +
          " of the mean total rupture rate (normal + sliding + rolling); none without an elastic -> plastic boundary. "
          "Rows below the first boundary are elastic, from it to the second single-mode plastic, from the second on "
@@ -225,17 +226,26 @@ class EnsembleStatistics {
   }
 
   // Where normal breaks begin in the plastic range: the lower end of the first trusted interval
-  // at or above the elastic -> plastic boundary whose normal-break rate is a fraction of all.
+  // at or above the elastic -> plastic boundary from which every trusted interval breaks bonds
+  // (gamma_normal > 0, and at least `fraction_` of all ruptures in the first one). Sliding
+  // resets outnumber breaks 20-50 to 1 once both occur (1408-particle gels, both bond sets), so a
+  // share of all ruptures never marks the onset; "from which every interval" keeps a stray early
+  // break from doing so.
   std::optional<double> single_to_multi_mode(const std::vector<double>& out, double elastic_end) const {
+    std::optional<double> onset;
     for (int i = 0; i < layout_.intervals; ++i) {
       if (!t_.interval_trusted[i]) continue;
       const double phi_lo = out[layout_.row(kPhi, t_.interval_upper[i] - 1)];
       if (phi_lo < elastic_end) continue;
       const double normal = out[layout_.interval(kGammaNormal, i)];
       const double all = normal + out[layout_.interval(kGammaSliding, i)] + out[layout_.interval(kGammaRolling, i)];
-      if (normal > 0 && normal >= fraction_ * all) return phi_lo;
+      if (!(normal > 0)) {
+        onset.reset();
+      } else if (!onset && normal >= fraction_ * all) {
+        onset = phi_lo;
+      }
     }
-    return std::nullopt;
+    return onset;
   }
 
   FitOutcome fit_power_law_over(const std::vector<int>& rows, const std::vector<double>& x, const std::vector<double>& y) const {
@@ -500,7 +510,16 @@ StudyEnsembleAnalysis analyse_ensemble(const StudyEnsembleInput& input, std::siz
       interval.regime = regime_at(interval.phi_mid, details.boundary[kElasticToPlastic], details.boundary[kSingleToMultiMode]);
     a.intervals.push_back(std::move(interval));
   }
-  if (details.boundary[kElasticToPlastic]) a.elastic_to_plastic_phi = estimate(layout.boundary(kElasticToPlastic), n);
+  if (details.boundary[kElasticToPlastic]) {
+    a.elastic_to_plastic_phi = estimate(layout.boundary(kElasticToPlastic), n);
+    // No trusted row stores more than it has dissipated: the boundary is the first trusted row
+    // itself, and the elastic regime (if any) lies below the rows that can be trusted.
+    for (const StudyRow& row : a.rows)
+      if (row.trusted) {
+        a.elastic_to_plastic_at_first_trusted_row = *details.boundary[kElasticToPlastic] == row.phi.value;
+        break;
+      }
+  }
   if (details.boundary[kSingleToMultiMode]) a.single_to_multi_mode_phi = estimate(layout.boundary(kSingleToMultiMode), n);
 
   auto power_law = [&](const FitOutcome& outcome, int exponent_index, int prefactor_index, int members) {
@@ -601,6 +620,7 @@ nlohmann::json to_json(const StudyEnsembleAnalysis& a) {
   for (const ExcludedRow& row : a.excluded_rows) excluded.push_back({{"k", row.k}, {"phi", row.phi}, {"reason", row.reason}});
   j["excluded_rows"] = excluded;
   j["regimes"] = {{"elastic_to_plastic_phi", optional_estimate(a.elastic_to_plastic_phi)},
+                  {"elastic_to_plastic_at_first_trusted_row", a.elastic_to_plastic_at_first_trusted_row},
                   {"single_to_multi_mode_phi", optional_estimate(a.single_to_multi_mode_phi)},
                   {"rule", a.regime_rule}};
   nlohmann::json power_law = nlohmann::json::object();

@@ -9,7 +9,7 @@
 //     increments of curve_increments;
 //   - the two regime boundaries: elastic -> plastic where the mean cumulative dissipated energy
 //     reaches the mean stored energy (interpolated in ln phi), single -> multi-mode where normal
-//     breaks reach `multi_mode_fraction` of the mean rupture rate;
+//     breaks begin and go on (every later trusted interval breaks bonds);
 //   - P = C phi^lambda over the trusted rows and over each regime's trusted rows, and the
 //     gel-point form below the single -> multi-mode boundary;
 //   - with run directories, xi^(0.5) per row and D_f of the generated network from the members'
@@ -51,7 +51,9 @@ struct StudyAnalysisOptions {
   bool include_unequilibrated = false;  // as RunAnalysisOptions
   bool structures = true;               // analyse snapshots when dirs are given
   StructureOptions structure;
-  double multi_mode_fraction = kDefaultMultiModeFraction;
+  // The share of all ruptures that normal breaks must reach where they begin (0: any break);
+  // see single -> multi-mode below.
+  double multi_mode_fraction = 0;
 };
 
 inline constexpr double kStudyConfidence = 0.95;
@@ -125,6 +127,9 @@ struct StudyEnsembleAnalysis {
   std::vector<StudyInterval> intervals;
   std::vector<ExcludedRow> excluded_rows;  // as analyse_curves lists them
   std::optional<Estimate> elastic_to_plastic_phi, single_to_multi_mode_phi;
+  // The first trusted row already dissipated as much as it stores: the boundary is that row's
+  // phi, an upper bound (the elastic regime lies below the rows at equilibrium and spanning).
+  bool elastic_to_plastic_at_first_trusted_row = false;
   std::string regime_rule;
   OptionalPowerLaw power_law_all;
   OptionalPowerLaw power_law_regime[3];  // indexed by Regime
