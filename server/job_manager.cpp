@@ -256,6 +256,19 @@ bool valid_utf8(std::string_view text) {
 }
 }  // namespace
 
+std::int64_t parse_page_token(const std::string& token, const std::string& method) {
+  if (token.empty()) return 0;
+  std::int64_t before = 0;
+  try {
+    std::size_t pos = 0;
+    before = std::stoll(token, &pos);
+    if (pos != token.size() || before <= 0) throw std::invalid_argument("");
+  } catch (const std::exception&) {
+    throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "page_token: not a token from a previous " + method);
+  }
+  return before;
+}
+
 Engine::Prepared JobManager::validated(const gel::v1::SubmitJobRequest& request) {
   // Seed 0 means "the default" in a scene and resolves to 1: in a list it would run seed 1 while
   // being recorded as 0, and {0, 1} would give two identical members.
@@ -492,15 +505,7 @@ gel::v1::ListJobsResponse JobManager::list(const gel::v1::ListJobsRequest& reque
   }
   if (request.page_size() < 0) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "page_size: must be >= 0");
   filter.limit = request.page_size() == 0 ? 50 : std::min(request.page_size(), 1000);
-  if (!request.page_token().empty()) {
-    try {
-      std::size_t pos = 0;
-      filter.before_seq = std::stoll(request.page_token(), &pos);
-      if (pos != request.page_token().size() || filter.before_seq <= 0) throw std::invalid_argument("");
-    } catch (const std::exception&) {
-      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "page_token: not a token from a previous ListJobs");
-    }
-  }
+  filter.before_seq = parse_page_token(request.page_token(), "ListJobs");
   ++filter.limit;  // one more, to know whether there is a next page
   auto rows = store_->list_jobs(filter);
   gel::v1::ListJobsResponse response;

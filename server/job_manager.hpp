@@ -175,4 +175,8 @@ class JobManager {
 
 std::int64_t now_ms();
 
+// A list call's page token (the seq of the last item of the previous page): 0 for none; an
+// ApiError INVALID_ARGUMENT naming `method` for anything else that is not a positive number.
+std::int64_t parse_page_token(const std::string& token, const std::string& method);
+
 }  // namespace geld

@@ -204,16 +204,7 @@ gel::v1::Study StudyManager::get(const std::string& id) {
 gel::v1::ListStudiesResponse StudyManager::list(const gel::v1::ListStudiesRequest& request) {
   if (request.page_size() < 0) throw invalid("page_size: must be >= 0");
   const int limit = request.page_size() == 0 ? 50 : std::min(request.page_size(), 1000);
-  std::int64_t before = 0;
-  if (!request.page_token().empty()) {
-    try {
-      std::size_t pos = 0;
-      before = std::stoll(request.page_token(), &pos);
-      if (pos != request.page_token().size() || before <= 0) throw std::invalid_argument("");
-    } catch (const std::exception&) {
-      throw invalid("page_token: not a token from a previous ListStudies");
-    }
-  }
+  const std::int64_t before = parse_page_token(request.page_token(), "ListStudies");
   auto rows = jobs_.store().list_studies(before, limit + 1);
   gel::v1::ListStudiesResponse response;
   for (std::size_t i = 0; i < rows.size() && i < static_cast<std::size_t>(limit); ++i)

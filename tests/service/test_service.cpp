@@ -2041,6 +2041,10 @@ TEST_F(Service, AStudyRunsOneJobPerEnsembleStreamsThemAndStoresItsAnalysis) {
   ASSERT_EQ(page.studies_size(), 1);
   EXPECT_EQ(page.studies(0).id(), id);
   EXPECT_TRUE(page.next_page_token().empty());
+  list_request.set_page_token("abc");
+  const auto bad_token = stub_->ListStudies(ctx().get(), list_request, &page);
+  EXPECT_EQ(bad_token.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(bad_token.error_message(), "page_token: not a token from a previous ListStudies");
 }
 
 TEST_F(Service, ABadStudyIsRefusedNamingTheFieldAndStoresNothing) {
