@@ -194,6 +194,16 @@ class Client:
         except grpc.RpcError as error:
             raise error_from_rpc(error, self.address, job_id) from None
 
+    def _all_pages(self, method, request, items):
+        """Every page of a list call (ListJobs, ListStudies): items(response) of each, in order."""
+        found = []
+        while True:
+            response = self._call(method, request)
+            found.extend(items(response))
+            if not response.next_page_token:
+                return found
+            request.page_token = response.next_page_token
+
     def submit(self, scene, *, seeds=None, name="", labels=None, fidelity=None, overrides=None, rerun=False):
         """Submit a compression job; returns its id ("job-000001").
 
@@ -241,13 +251,7 @@ class Client:
             if state not in _STATE_NAMES:
                 raise ValueError(f"jobs: unknown state {state!r} ({', '.join(_STATE_NAMES)})")
             request.state = service_pb2.JobState.Value("JOB_STATE_" + state.upper())
-        found = []
-        while True:
-            response = self._call(self._stub.ListJobs, request)
-            found.extend(job_to_dict(job) for job in response.jobs)
-            if not response.next_page_token:
-                return found
-            request.page_token = response.next_page_token
+        return self._all_pages(self._stub.ListJobs, request, lambda response: map(job_to_dict, response.jobs))
 
     def watch(self, job_id):
         """Follow a job: yields one dict per update (gel.messages.update_to_dict), first a
@@ -393,13 +397,8 @@ class Client:
     def studies(self):
         """Every study, newest first, as study()'s dicts."""
         request = service_pb2.ListStudiesRequest(page_size=1000)
-        found = []
-        while True:
-            response = self._call(self._stub.ListStudies, request)
-            found.extend(_study_to_dict(study) for study in response.studies)
-            if not response.next_page_token:
-                return found
-            request.page_token = response.next_page_token
+        return self._all_pages(self._stub.ListStudies, request,
+                               lambda response: map(_study_to_dict, response.studies))
 
     def cancel_study(self, study_id):
         """Cancel the study's jobs that have not ended; returns the study (dict)."""
