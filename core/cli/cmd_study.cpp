@@ -7,7 +7,9 @@
 // Members of every ensemble share one work list, `--jobs` at a time, each in
 // OUT/<ensemble>/seed_<seed>; a finished member is never run again and an interrupted one
 // resumes from its checkpoint, so the same command continues a study. The analysis
-// (gel::analysis::analyse_study) goes to OUT/study_analysis.json.
+// (gel::analysis::analyse_study) goes to OUT/study_analysis.json, and each finished member's
+// structure numbers to its structure.json: with curve.json, all that the analysis needs, so a
+// study directory without checkpoints and snapshots is still a complete, resumable study.
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -59,6 +61,18 @@ bool finished_run(const std::string& dir) {
   if (!fs::exists(fs::path(dir) / "curve.json")) return false;
   const gel::v1::Curve curve = gel::read_curve(dir);
   return curve.rows_size() > 0 && curve.rows(curve.rows_size() - 1).k() == curve.scene().compression().steps();
+}
+
+// The member's structure numbers beside its curve (OUT/<ensemble>/seed_<seed>/structure.json),
+// so that the study can be analysed again, and archived, without its snapshots.
+void write_member_structure(const std::string& dir, const gel::v1::Curve& curve) {
+  const gel::analysis::StructureOptions options;  // the analysis's own (StudyAnalysisOptions::structure)
+  if (gel::analysis::read_member_structure(dir, curve, options)) return;
+  const gel::analysis::MemberStructure structure = gel::analysis::member_structure(dir, curve, options);
+  const fs::path path = fs::path(dir) / gel::analysis::kMemberStructureFile;
+  const fs::path partial = fs::path(dir) / (std::string(gel::analysis::kMemberStructureFile) + ".partial");
+  std::ofstream(partial) << gel::analysis::to_json(structure, curve).dump(1) << "\n";
+  fs::rename(partial, path);
 }
 
 // {"ensembles": [{"name": "bond1", "scene": {...}, "seeds": [1, 2, 3]}, ...]}: the shape of the
@@ -207,6 +221,8 @@ int run_study(const StudyArgs& args) {
       input.seeds.push_back(member.seed);
       input.dirs.push_back(member.dir);
     }
+    if (!args.no_structure)
+      for (std::size_t m = 0; m < input.curves.size(); ++m) write_member_structure(input.dirs[m], input.curves[m]);
     if (input.curves.empty()) {
       print("ensemble " + spec.name + ": no finished member, left out of the analysis");
       continue;

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # gelsim study end to end with the real gelsim on tiny scenes: two ensembles of three seeds run
 # into OUT/<ensemble>/seed_<seed> and are analysed into OUT/study_analysis.json; the same command
-# again runs nothing and gives the same analysis; a SIGTERM stops it with exit 4 and the same
+# again runs nothing and gives the same analysis, also from a copy holding only each member's
+# curve.json and structure.json; a SIGTERM stops it with exit 4 and the same
 # command finishes it with the rows of an uninterrupted study; --analyse-only and bad input.
 set -euo pipefail
 GELSIM=${1:?usage: test_gelsim_study.sh GELSIM}
@@ -57,6 +58,45 @@ PY
 same_analysis "$WORK/first.json" "$WORK/a/study_analysis.json" || fail "the repeated analysis differs"
 "$GELSIM" study --out "$WORK/a" --analyse-only --bootstrap-samples 200 > /dev/null 2>&1 || fail "--analyse-only"
 same_analysis "$WORK/first.json" "$WORK/a/study_analysis.json" || fail "--analyse-only gives another analysis"
+
+# 2b. Each member keeps its structure numbers (structure.json): a copy of the study with only
+# curve.json and structure.json per member gives the same analysis, runs nothing, and a
+# structure.json that does not fit its curve is recomputed, not believed.
+$py - "$WORK/a" <<'PY' || fail "structure.json"
+import json, os, sys
+for ensemble in ("bond1", "bond2"):
+    for seed in (1, 2, 3):
+        d = os.path.join(sys.argv[1], ensemble, f"seed_{seed}")
+        s = json.load(open(os.path.join(d, "structure.json")))
+        rows = json.load(open(os.path.join(d, "curve.json")))["rows"]
+        assert s["format"] == "gel.member-structure.v1", s["format"]
+        assert [r["k"] for r in s["rows"]] == [r["k"] for r in rows], (d, s["rows"])
+        assert isinstance(s["D_f_initial"], float) and 1.0 < s["D_f_initial"] < 2.0, s["D_f_initial"]
+        assert any(isinstance(r["xi_05"], float) for r in s["rows"]), s["rows"]
+PY
+mkdir -p "$WORK/kept"
+cp "$WORK/a/study.json" "$WORK/kept/"
+for d in "$WORK"/a/bond*/seed_*; do
+  target="$WORK/kept/$(basename "$(dirname "$d")")/$(basename "$d")"
+  mkdir -p "$target" && cp "$d/curve.json" "$d/structure.json" "$target/"
+done
+"$GELSIM" study --file "$WORK/study.json" --seeds 3 --bootstrap-samples 200 --out "$WORK/kept" > /dev/null 2> "$WORK/kept.log" \
+  || fail "the study from curves and structure files exited $?"
+! grep -q "done in" "$WORK/kept.log" || fail "a member with its curve and structure file ran again"
+same_analysis "$WORK/first.json" "$WORK/kept/study_analysis.json" || fail "the analysis from structure files differs"
+$py - "$WORK/kept/bond1/seed_1/structure.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["rows"] = s["rows"][:-1]  # no longer the curve's rows
+json.dump(s, open(sys.argv[1], "w"))
+PY
+"$GELSIM" study --out "$WORK/kept" --analyse-only --bootstrap-samples 200 > /dev/null 2>&1 || fail "--analyse-only with a bad structure file"
+$py - "$WORK/kept/study_analysis.json" <<'PY' || fail "a structure file that does not fit its curve was believed"
+import json, sys
+e = json.load(open(sys.argv[1]))["ensembles"][0]
+# Recomputed from snapshots that this copy lacks: that member has no D_f now.
+assert e["fractal_dimension_initial"]["n"] == 2, e["fractal_dimension_initial"]
+PY
 
 # 3. SIGTERM once the first row is out, then the same command: the rows of the uninterrupted study.
 "$GELSIM" study --file "$WORK/study.json" --seeds 3 --jobs 1 --bootstrap-samples 200 --out "$WORK/b" > /dev/null 2> "$WORK/b.log" &

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <random>
@@ -358,22 +359,20 @@ MemberTables member_tables(const StudyEnsembleInput& e, const CurveAnalysis& cur
   return t;
 }
 
-// xi^(0.5) of every member's snapshot per row and D_f of its row-0 snapshot, read as
-// analyse_runs reads them: DIR/<row.snapshot>, skipped when not named or not on disk.
+// xi^(0.5) of every member's snapshot per row and D_f of its row-0 snapshot: from the member's
+// structure.json where it holds them, else from DIR/<row.snapshot> as analyse_runs reads them
+// (skipped when not named or not on disk).
 double load_structures(const StudyEnsembleInput& e, const StructureOptions& options, MemberTables& t) {
   const auto start = std::chrono::steady_clock::now();
   const int n = t.members;
   std::vector<std::vector<double>> xi(t.rows, std::vector<double>(n, kMissing));
-  for (int m = 0; m < n; ++m)
-    for (int r = 0; r < t.rows; ++r) {
-      const std::string& name = e.curves[m].rows(r).snapshot();
-      if (name.empty()) continue;
-      const std::string path = (std::filesystem::path(e.dirs[m]) / name).string();
-      if (!std::filesystem::exists(path)) continue;
-      const StructureAnalysis s = analyse_structure(read_configuration(path), options);
-      if (s.xi_05) xi[r][m] = *s.xi_05;
-      if (r == 0 && s.df_fit) t.df_initial[m] = s.df_fit->df;
-    }
+  for (int m = 0; m < n; ++m) {
+    const std::optional<MemberStructure> stored = read_member_structure(e.dirs[m], e.curves[m], options);
+    const MemberStructure s = stored ? *stored : member_structure(e.dirs[m], e.curves[m], options);
+    for (int r = 0; r < t.rows; ++r)
+      if (s.xi_05[static_cast<std::size_t>(r)]) xi[r][m] = *s.xi_05[static_cast<std::size_t>(r)];
+    if (s.df_initial) t.df_initial[m] = *s.df_initial;
+  }
   for (int r = 0; r < t.rows; ++r) {
     const auto present = std::count_if(xi[r].begin(), xi[r].end(), [](double v) { return std::isfinite(v); });
     if (present == 0) continue;
@@ -647,6 +646,63 @@ nlohmann::json to_json(const StudyEnsembleAnalysis& a) {
 }
 
 }  // namespace
+
+nlohmann::json member_structure_options(const StructureOptions& o) {
+  return {{"pixel", o.pixel},
+          {"fit_rmin", o.fit_rmin},
+          {"fit_rmax", o.fit_rmax},
+          {"df_half_window", o.df_half_window},
+          {"correlation", {{"bin", o.correlation.bin}, {"r_max", o.correlation.r_max}}},
+          {"fluctuation", {{"l_min", o.fluctuation.l_min}, {"l_max", o.fluctuation.l_max}, {"factor", o.fluctuation.factor}}}};
+}
+
+MemberStructure member_structure(const std::string& dir, const gel::v1::Curve& curve, const StructureOptions& options) {
+  MemberStructure s;
+  s.options = member_structure_options(options);
+  s.xi_05.resize(static_cast<std::size_t>(curve.rows_size()));
+  for (int r = 0; r < curve.rows_size(); ++r) {
+    const std::string& name = curve.rows(r).snapshot();
+    if (name.empty()) continue;
+    const std::string path = (std::filesystem::path(dir) / name).string();
+    if (!std::filesystem::exists(path)) continue;
+    const StructureAnalysis a = analyse_structure(read_configuration(path), options);
+    s.xi_05[static_cast<std::size_t>(r)] = a.xi_05;
+    if (r == 0 && a.df_fit) s.df_initial = a.df_fit->df;
+  }
+  return s;
+}
+
+nlohmann::json to_json(const MemberStructure& s, const gel::v1::Curve& curve) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < curve.rows_size(); ++r)
+    rows.push_back({{"k", curve.rows(r).k()}, {"xi_05", optional_number(s.xi_05[static_cast<std::size_t>(r)])}});
+  return {{"format", kMemberStructureFormat}, {"rows", rows}, {"D_f_initial", optional_number(s.df_initial)},
+          {"options", s.options}};
+}
+
+std::optional<MemberStructure> read_member_structure(const std::string& dir, const gel::v1::Curve& curve,
+                                                     const StructureOptions& options) {
+  const std::filesystem::path path = std::filesystem::path(dir) / kMemberStructureFile;
+  if (!std::filesystem::exists(path)) return std::nullopt;
+  std::ifstream in(path);
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  // Anything but the file this code writes for this curve and these options is recomputed.
+  if (!j.is_object() || j.value("format", "") != kMemberStructureFormat || !j.contains("rows") ||
+      !j.at("rows").is_array() || j.at("rows").size() != static_cast<std::size_t>(curve.rows_size()) ||
+      j.value("options", nlohmann::json()) != member_structure_options(options))
+    return std::nullopt;
+  MemberStructure s;
+  s.options = j.at("options");
+  for (int r = 0; r < curve.rows_size(); ++r) {
+    const nlohmann::json& row = j.at("rows")[static_cast<std::size_t>(r)];
+    if (!row.is_object() || row.value("k", -1) != curve.rows(r).k()) return std::nullopt;
+    const nlohmann::json& xi = row.value("xi_05", nlohmann::json());
+    s.xi_05.push_back(xi.is_number() ? std::optional<double>(xi.get<double>()) : std::nullopt);
+  }
+  const nlohmann::json& df = j.value("D_f_initial", nlohmann::json());
+  if (df.is_number()) s.df_initial = df.get<double>();
+  return s;
+}
 
 StudyAnalysis analyse_study(const std::vector<StudyEnsembleInput>& ensembles, const StudyAnalysisOptions& options) {
   validate(ensembles, options);

@@ -148,6 +148,30 @@ struct StudyAnalysis {
   std::vector<StudyEnsembleAnalysis> ensembles;
 };
 
+// The structure numbers of one member that a study's analysis uses: xi^(0.5) of each row's
+// snapshot and D_f of the row-0 snapshot (the generated network). Kept beside the member's
+// curve as DIR/structure.json, so that a study can be analysed, and archived, without the
+// snapshots (megabytes a member against kilobytes): analyse_study reads that file where it
+// exists and was made with the same structure options, and the snapshots otherwise.
+struct MemberStructure {
+  std::vector<std::optional<double>> xi_05;  // per curve row, by index; empty: no snapshot or no value
+  std::optional<double> df_initial;
+  nlohmann::json options;  // the StructureOptions it was computed with (member_structure_options)
+};
+inline constexpr const char* kMemberStructureFormat = "gel.member-structure.v1";
+inline constexpr const char* kMemberStructureFile = "structure.json";
+
+// From the member's snapshots DIR/<row.snapshot> (rows without one, or whose file is gone, stay
+// empty). Throws InvalidArgument("path") for a snapshot that exists but cannot be read.
+MemberStructure member_structure(const std::string& dir, const gel::v1::Curve& curve, const StructureOptions& options);
+nlohmann::json member_structure_options(const StructureOptions& options);
+// {"format": "gel.member-structure.v1", "rows": [{"k", "xi_05": number|null}], "D_f_initial", "options"}
+nlohmann::json to_json(const MemberStructure& structure, const gel::v1::Curve& curve);
+// DIR/structure.json if it exists, is of this format, matches the curve's rows and was made with
+// these options; otherwise nothing.
+std::optional<MemberStructure> read_member_structure(const std::string& dir, const gel::v1::Curve& curve,
+                                                     const StructureOptions& options);
+
 // Throws InvalidArgument naming the field: "ensembles" (none), "ensembles[i].curves" (no
 // member, members whose rows differ), "ensembles[i].seeds" (not one per curve),
 // "ensembles[i].dirs" (given, but not one per curve), "ensembles[i].name" (empty or
