@@ -11,6 +11,7 @@
 #include "gel/bond_evaluator.hpp"
 #include "gel/errors.hpp"
 #include "gel/system.hpp"
+#include "fire_kernels.hpp"
 #include "gel/units.hpp"
 #include "rotation.hpp"
 
@@ -202,30 +203,10 @@ bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t 
     const double v_new_sq = v_sq + 2 * dt * fv_over_m + dt * dt * f_sq_over_m2;
     const double mix = f_sq > 0 ? state.alpha * std::sqrt(std::max(v_new_sq, 0.0) / f_sq) : 0.0;
     const double keep = 1.0 - state.alpha;
-    double largest_sq = 0;
-    const double cap_sq = max_step * max_step;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double t = torque_[i] / kRadius;
-      double vxi = keep * (vx_[i] + dt * fx_[i] * inv_m) + mix * fx_[i];
-      double vyi = keep * (vy_[i] + dt * fy_[i] * inv_m) + mix * fy_[i];
-      double wi = keep * (kRadius * omega_[i] + dt * t * inv_rot) + mix * t;  // a omega
-      // A particle moves at most max_step per iteration (contact search and the small-angle
-      // rotation rely on it).
-      const double move_sq = dt * dt * std::max(vxi * vxi + vyi * vyi, wi * wi);
-      if (move_sq > cap_sq) {
-        const double shrink = max_step / std::sqrt(move_sq);
-        vxi *= shrink;
-        vyi *= shrink;
-        wi *= shrink;
-      }
-      largest_sq = std::max(largest_sq, dt * dt * (vxi * vxi + vyi * vyi));
-      vx_[i] = vxi;
-      vy_[i] = vyi;
-      omega_[i] = wi / kRadius;
-      x_[i] += dt * vxi;
-      y_[i] += dt * vyi;
-      rotate_small(orient_c_[i], orient_s_[i], dt * omega_[i]);
-    }
+    const detail::FireMixing mixing{dt, keep, mix, inv_m, inv_rot, max_step, max_step * max_step};
+    const double largest_sq = detail::fire_update(n, mixing, x_.data(), y_.data(), orient_c_.data(), orient_s_.data(),
+                                                  vx_.data(), vy_.data(), omega_.data(), fx_.data(), fy_.data(),
+                                                  torque_.data());
     if (walls_active_) impose_wall_motion();
     travel_ += std::sqrt(largest_sq);
     after_drift();
