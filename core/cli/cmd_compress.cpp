@@ -1,6 +1,6 @@
 // gelsim compress: stepwise uniaxial compression of a fractal gel (README "Compression").
 //   gelsim compress --preset quick
-//   gelsim compress --preset paper-bond1 --seed 1 --fidelity default --out runs/b1 --progress-file runs/b1/progress.jsonl
+//   gelsim compress --preset paper-bond1 --seed 1 --out runs/b1 --progress-file runs/b1/progress.jsonl
 //   gelsim compress --resume runs/b1
 //   gelsim compress --preset quick --seeds 1-8 --jobs 2 --out runs/ens   (an ensemble, members in parallel)
 // Progress goes to stderr (a bar on a terminal, plain lines otherwise), the curve to stdout.
@@ -479,7 +479,7 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
                  "engine threads per run (results are bit-identical for any number; default: the scene's integration.threads, else 1)")
       ->check(CLI::Range(1, 1024));
   sub.add_option("--jobs", args->jobs, "ensemble members run at a time (0: one per core; default 1)")->check(CLI::NonNegativeNumber);
-  sub.add_option("--fidelity", args->fidelity, "fast, default, paper (MODEL.md reference values) or quasistatic (FIRE relaxation)");
+  sub.add_option("--fidelity", args->fidelity, "default (= quasistatic: FIRE relaxation at each target), paper (MODEL.md reference values) or fast (biased, for exploring)");
   sub.add_option("--out", args->out, "run directory: curve.json/csv, profiles.csv, snapshots/, checkpoint.bin");
   sub.add_option("--resume", args->resume, "continue the run in DIR (default: --out) from its checkpoint")->expected(0, 1);
   sub.add_option("--progress-file", args->progress_file, "append one JSON line per progress message and row");
@@ -514,7 +514,7 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
                  "adaptive wall: let the walls run up to this multiple of v_wall while quasi-static (1 = off)");
   sub.add_option("--adaptive-drag-fraction", args->adaptive_drag_fraction,
                  "adaptive wall: share of the wall work that drag may take before the walls slow (default 0.05)\n"
-                 "(with neither option, the fidelity preset decides: on, x10 and 0.5, in 'default')");
+                 "(with neither option, the fidelity preset decides: off in every preset)");
   sub.add_option("--exam-ruptures", args->exam_ruptures,
                  "ruptures the equilibrium test's third criterion counts: all (default) or normal");
   sub.add_option("--approach", args->approach,

@@ -86,8 +86,15 @@ TEST(CompressionSchedule, ReproducesPhiKExactly) {
   expect_invalid("compression.w0", [] { compression_targets(0.3, 1.0, 0.5, 4); });
 }
 
+// A paper preset with fidelity "paper" runs MODEL.md's reference protocol.
+gel::v1::Scene paper_fidelity(const std::string& preset) {
+  gel::v1::Scene scene = scene_preset(preset);
+  scene.mutable_compression()->set_fidelity("paper");
+  return resolve_compression_scene(scene);
+}
+
 TEST(CompressionScene, PaperPresetsCarryTheReferenceValues) {
-  const gel::v1::Scene b1 = resolve_compression_scene(scene_preset("paper-bond1"));
+  const gel::v1::Scene b1 = paper_fidelity("paper-bond1");
   const gel::v1::Compression& c1 = b1.compression();
   EXPECT_EQ(c1.fidelity(), "paper");
   EXPECT_DOUBLE_EQ(c1.w0(), 4.0 / 3.0);
@@ -100,37 +107,57 @@ TEST(CompressionScene, PaperPresetsCarryTheReferenceValues) {
   EXPECT_DOUBLE_EQ(c1.v_wall(), 5e-4 * std::sqrt(20.0));  // v0 = a sqrt(k_R/m), k_R = 20
   EXPECT_EQ(b1.generator().n_floc() * b1.generator().n_clusters(), 5760);
   EXPECT_FALSE(c1.approach_shortcut());
+  EXPECT_FALSE(c1.quasistatic());
 
-  const gel::v1::Compression c2 = resolve_compression_scene(scene_preset("paper-bond2")).compression();
+  const gel::v1::Compression c2 = paper_fidelity("paper-bond2").compression();
   EXPECT_DOUBLE_EQ(c2.b_tolerance(), 1e-4);
   EXPECT_DOUBLE_EQ(c2.v_wall_v0(), 1e-4);
 
   EXPECT_EQ(c1.adaptive_wall_max_factor(), 1.0);
 
-  // The presets chosen by the accuracy study (docs/accuracy.md): default keeps the paper's wall
-  // speed and B but tests every 3000 steps, lets the adaptive wall run up to 10x and jumps the
-  // stress-free approach; fast has 4x the wall speed, m_exam 2000 and 3x B, no adaptive wall.
+  // The presets derived from the ensemble accuracy study (docs/accuracy.md): a scene that names
+  // no fidelity, a scene preset included, gets "default", which is the quasi-static method (the
+  // paper's walls without shortcut, bond 2's at 4x, FIRE at each target); fast has 4x the wall
+  // speed, m_exam 2000, 3x B and the shortcut.
+  for (const std::string preset : {"paper-bond1", "paper-bond2", "quick"}) {
+    const gel::v1::Compression unnamed = resolve_compression_scene(scene_preset(preset)).compression();
+    EXPECT_EQ(unnamed.fidelity(), "default") << preset;
+    EXPECT_TRUE(unnamed.quasistatic()) << preset;
+    EXPECT_FALSE(unnamed.approach_shortcut()) << preset;
+    EXPECT_EQ(unnamed.adaptive_wall_max_factor(), 1.0) << preset;
+  }
   gel::v1::Scene scene = scene_preset("paper-bond1");
-  scene.mutable_compression()->set_fidelity("default");
-  const gel::v1::Compression d = resolve_compression_scene(scene).compression();
+  scene.mutable_compression()->set_fidelity("quasistatic");
+  const gel::v1::Compression q1 = resolve_compression_scene(scene).compression();
+  const gel::v1::Compression d1 = resolve_compression_scene(scene_preset("paper-bond1")).compression();
+  EXPECT_DOUBLE_EQ(d1.v_wall(), c1.v_wall());
+  EXPECT_DOUBLE_EQ(q1.v_wall(), c1.v_wall());
+  EXPECT_EQ(d1.relax_force_tolerance(), q1.relax_force_tolerance());
+  EXPECT_DOUBLE_EQ(resolve_compression_scene(scene_preset("paper-bond2")).compression().v_wall_v0(), 4e-4);
   scene.mutable_compression()->set_fidelity("fast");
   const gel::v1::Compression f = resolve_compression_scene(scene).compression();
-  EXPECT_DOUBLE_EQ(d.v_wall(), c1.v_wall());
-  EXPECT_EQ(d.m_exam(), 3000);
-  EXPECT_DOUBLE_EQ(d.b_tolerance(), c1.b_tolerance());
-  EXPECT_EQ(d.adaptive_wall_max_factor(), 10.0);
-  EXPECT_EQ(d.adaptive_wall_drag_fraction(), 0.5);
-  EXPECT_TRUE(d.approach_shortcut());
   EXPECT_DOUBLE_EQ(f.v_wall(), 4 * c1.v_wall());
   EXPECT_EQ(f.m_exam(), 2000);
   EXPECT_DOUBLE_EQ(f.b_tolerance(), 3 * c1.b_tolerance());
   EXPECT_EQ(f.adaptive_wall_max_factor(), 1.0);
   EXPECT_TRUE(f.approach_shortcut());
-  // An explicit 1 turns the preset's adaptive wall off.
-  scene.mutable_compression()->set_fidelity("default");
-  scene.mutable_compression()->set_adaptive_wall_max_factor(1);
-  EXPECT_EQ(resolve_compression_scene(scene).compression().adaptive_wall_max_factor(), 1.0);
+  EXPECT_FALSE(f.quasistatic());
+  // The adaptive wall is still there for a scene that asks for it.
+  scene.mutable_compression()->set_adaptive_wall_max_factor(10);
+  EXPECT_EQ(resolve_compression_scene(scene).compression().adaptive_wall_max_factor(), 10.0);
+  EXPECT_EQ(resolve_compression_scene(scene).compression().adaptive_wall_drag_fraction(), 0.05);
   scene.mutable_compression()->clear_adaptive_wall_max_factor();
+
+  // A scene resolved under an earlier "default" (shortcut, adaptive walls, no FIRE) keeps those
+  // fields when it is resolved again, as a stored job is when it resumes: it runs as it started.
+  gel::v1::Scene stored = resolve_compression_scene(scene_preset("paper-bond1"));
+  stored.mutable_compression()->set_quasistatic(false);
+  stored.mutable_compression()->set_approach_shortcut(true);
+  stored.mutable_compression()->set_adaptive_wall_max_factor(10);
+  const gel::v1::Compression again = resolve_compression_scene(stored).compression();
+  EXPECT_FALSE(again.quasistatic());
+  EXPECT_TRUE(again.approach_shortcut());
+  EXPECT_EQ(again.adaptive_wall_max_factor(), 10.0);
 
   // Explicit fields override the preset; the resolved scene survives JSON.
   scene.mutable_compression()->set_m_exam(1234);
@@ -153,7 +180,8 @@ TEST(CompressionScene, LargerPresetsScaleThePaperBox) {
       EXPECT_EQ(large.generator().ly(), scale * paper.generator().ly()) << base + suffix;
       EXPECT_EQ(large.generator().n_floc(), paper.generator().n_floc());
       EXPECT_EQ(large.generator().n_clusters(), scale * scale * paper.generator().n_clusters());
-      EXPECT_EQ(large.compression().fidelity(), "paper");
+      EXPECT_EQ(large.compression().fidelity(), paper.compression().fidelity());
+      EXPECT_EQ(large.compression().quasistatic(), paper.compression().quasistatic());
       EXPECT_EQ(large.compression().v_wall(), paper.compression().v_wall());
     }
   }
