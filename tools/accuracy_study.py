@@ -190,8 +190,8 @@ PRESET_MIN_SEEDS = 8
 
 def preset_derivation(summary_rows):
     """The rule that makes the presets: `default` is the cheapest candidate that agrees with the
-    reference in every family that has enough seeds for a verdict (at most one target outside,
-    the λ interval containing 0)."""
+    reference (at most one target outside, the λ interval containing 0) in every family where both
+    ensembles have PRESET_MIN_SEEDS seeds or more."""
     verdicts, weak = {}, {}
     for gel, variant, c in summary_rows:
         if variant not in PRESET_CANDIDATES or not c["enough"]:

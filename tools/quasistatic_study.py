@@ -80,6 +80,9 @@ VARIANTS = {
     # largest step is again kept where it was (6 x gain x the halved dt).
     "quasistatic-dt-half": {"fidelity": "quasistatic", "dt_fraction": 0.0125, "relax_dt_max_factor": 6},
 }
+# Variant keys copied as they are into the scene's compression message.
+COMPRESSION_FIELDS = ("adaptive_wall_max_factor", "approach_shortcut", "adaptive_wall_drag_fraction", "m_exam",
+                      "quasistatic_approach", "relax_max_iterations", "relax_dt_max_factor")
 REFERENCE = "paper"
 DEFAULT_VARIANTS = ("quasistatic", "paper")
 REFERENCE_WALL_SPEED = {"bond1": 5e-4, "bond2": 1e-4}
@@ -96,20 +99,9 @@ def scene_for(gel, fidelity, seed):
     scene.setdefault("generator", {})["seed"] = seed
     variant = VARIANTS[fidelity]
     scene["compression"] = {"fidelity": variant["fidelity"]}
-    if "adaptive_wall_max_factor" in variant:
-        scene["compression"]["adaptive_wall_max_factor"] = variant["adaptive_wall_max_factor"]
-    if "approach_shortcut" in variant:
-        scene["compression"]["approach_shortcut"] = variant["approach_shortcut"]
-    if "adaptive_wall_drag_fraction" in variant:
-        scene["compression"]["adaptive_wall_drag_fraction"] = variant["adaptive_wall_drag_fraction"]
-    if "m_exam" in variant:
-        scene["compression"]["m_exam"] = variant["m_exam"]
-    if "quasistatic_approach" in variant:
-        scene["compression"]["quasistatic_approach"] = variant["quasistatic_approach"]
-    if "relax_max_iterations" in variant:
-        scene["compression"]["relax_max_iterations"] = variant["relax_max_iterations"]
-    if "relax_dt_max_factor" in variant:
-        scene["compression"]["relax_dt_max_factor"] = variant["relax_dt_max_factor"]
+    for field in COMPRESSION_FIELDS:
+        if field in variant:
+            scene["compression"][field] = variant[field]
     if "dt_fraction" in variant:
         scene.setdefault("integration", {})["dt_fraction"] = variant["dt_fraction"]
     if "wall_factor" in variant:

@@ -175,7 +175,7 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   // A scene resolved before keeps what its fidelity gave it then (a stored job resumed after a
   // preset changed runs as it started); only a new or changed fidelity derives its fields.
   const bool derive_fidelity_fields = c->resolved_fidelity() != c->fidelity();
-  if (!c->resolved_fidelity().empty() && c->resolved_fidelity() != c->fidelity()) {
+  if (derive_fidelity_fields && !c->resolved_fidelity().empty()) {
     // Every field the old fidelity filled in is filled again from the new one (an explicit
     // value among them cannot be told from a derived one in a resolved scene, so it goes too).
     c->clear_v_wall();

@@ -22,7 +22,6 @@ struct FireMixing {
   double inv_m;        // 1/m
   double inv_rot;      // a^2 / I (FIRE's own inertia)
   double max_step;     // largest move of a particle in one iteration
-  double max_step_sq;
 };
 
 [[gnu::always_inline]] inline void fire_update_one(std::size_t i, const FireMixing& k, double* __restrict x,
@@ -30,7 +29,7 @@ struct FireMixing {
                                                    double* __restrict vx, double* __restrict vy,
                                                    double* __restrict omega, const double* __restrict fx,
                                                    const double* __restrict fy, const double* __restrict torque,
-                                                   double& largest_move_sq) {
+                                                   double max_step_sq, double& largest_move_sq) {
   const double t = torque[i] / kRadius;
   double vxi = k.keep * (vx[i] + k.dt * fx[i] * k.inv_m) + k.mix * fx[i];
   double vyi = k.keep * (vy[i] + k.dt * fy[i] * k.inv_m) + k.mix * fy[i];
@@ -39,7 +38,7 @@ struct FireMixing {
   // rotation rely on it).
   const double linear_sq = vxi * vxi + vyi * vyi, angular_sq = wi * wi;
   const double move_sq = k.dt * k.dt * (linear_sq < angular_sq ? angular_sq : linear_sq);
-  const double shrink = move_sq > k.max_step_sq ? k.max_step / std::sqrt(move_sq) : 1.0;
+  const double shrink = move_sq > max_step_sq ? k.max_step / std::sqrt(move_sq) : 1.0;
   vxi *= shrink;
   vyi *= shrink;
   wi *= shrink;
@@ -60,13 +59,14 @@ GEL_SIMD_CLONES inline double fire_update(std::size_t n, FireMixing k, double* _
                                           double* __restrict vy, double* __restrict omega,
                                           const double* __restrict fx, const double* __restrict fy,
                                           const double* __restrict torque) {
+  const double max_step_sq = k.max_step * k.max_step;
   double largest[kReductionLanes] = {};
   const std::size_t full = n - n % kReductionLanes;
   for (std::size_t start = 0; start < full; start += kReductionLanes)
     for (std::size_t lane = 0; lane < kReductionLanes; ++lane)
-      fire_update_one(start + lane, k, x, y, c, s, vx, vy, omega, fx, fy, torque, largest[lane]);
+      fire_update_one(start + lane, k, x, y, c, s, vx, vy, omega, fx, fy, torque, max_step_sq, largest[lane]);
   for (std::size_t i = full; i < n; ++i)
-    fire_update_one(i, k, x, y, c, s, vx, vy, omega, fx, fy, torque, largest[i - full]);
+    fire_update_one(i, k, x, y, c, s, vx, vy, omega, fx, fy, torque, max_step_sq, largest[i - full]);
   double largest_move_sq = 0;
   for (std::size_t lane = 0; lane < kReductionLanes; ++lane)
     largest_move_sq = largest_move_sq < largest[lane] ? largest[lane] : largest_move_sq;

@@ -203,7 +203,7 @@ bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t 
     const double v_new_sq = v_sq + 2 * dt * fv_over_m + dt * dt * f_sq_over_m2;
     const double mix = f_sq > 0 ? state.alpha * std::sqrt(std::max(v_new_sq, 0.0) / f_sq) : 0.0;
     const double keep = 1.0 - state.alpha;
-    const detail::FireMixing mixing{dt, keep, mix, inv_m, inv_rot, max_step, max_step * max_step};
+    const detail::FireMixing mixing{dt, keep, mix, inv_m, inv_rot, max_step};
     const double largest_sq = detail::fire_update(n, mixing, x_.data(), y_.data(), orient_c_.data(), orient_s_.data(),
                                                   vx_.data(), vy_.data(), omega_.data(), fx_.data(), fy_.data(),
                                                   torque_.data());
