@@ -464,7 +464,7 @@ void System::bond_forces() {
   }
 
   auto pass1 = [&](std::size_t begin, std::size_t count, double* out_fx, double* out_fy, double* out_ti, double* out_tj,
-                   double* out_delta, std::uint8_t* out_state) {
+                   double* out_delta, detail::BondState* out_state) {
     detail::bond_chunk_forces<kEffects, kShift, kCheckThresholds>(arrays, begin, count, x_.data(), y_.data(),
                                                                   orient_c_.data(), orient_s_.data(), law, out_fx, out_fy,
                                                                   out_ti, out_tj, out_delta, out_state);
