@@ -478,6 +478,19 @@ RunResult SlurmExecutor::run(const RunContext& ctx) {
 
   // The scene the nodes run, written atomically (the same resolved scene on every run).
   const std::string scene_path = (fs::path(dir) / "scene.json").string();
+  if (ctx.handle.empty() && gel::has_checkpoint(dir)) {
+    // A fresh member resumes a checkpoint it finds (geld stopped between sbatch and saving the
+    // handle), but only its own: job ids are numbered per database, so two gelds on one shared
+    // folder, or one whose database was replaced, meet at the same paths, and resuming another
+    // job's checkpoint would report that job's curve as this one's.
+    std::ifstream in(scene_path, std::ios::binary);
+    const std::string previous((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (previous != ctx.scene_json)
+      throw std::runtime_error("the member folder " + dir +
+                               " holds a checkpoint of a different scene (another job with the same id, from "
+                               "another geld or an earlier database, on this shared folder); it is left as it is: "
+                               "give each geld its own slurm-shared-dir, or remove that folder to run this member");
+  }
   {
     std::ofstream out(scene_path + ".tmp", std::ios::binary | std::ios::trunc);
     out << ctx.scene_json;

@@ -295,7 +295,11 @@ class SlurmCluster : public ::testing::Test {
     return ctx;
   }
   fs::path member_dir(const std::string& job, int member = 0) const {
-    return shared_ / job / ("m" + std::to_string(member) + "-seed1");
+    // Appended piecewise: GCC 12's -Wrestrict misfires on "m" + std::to_string(...) here.
+    std::string leaf = "m";
+    leaf += std::to_string(member);
+    leaf += "-seed1";
+    return shared_ / job / leaf;
   }
   static std::string squeue_state(const std::string& id) {
     auto r = geld::slurm::run_command({"squeue", "-h", "-t", "all", "-j", id, "-o", "%T"}, 30s);
@@ -439,6 +443,33 @@ TEST_F(SlurmCluster, AStaleHandleResubmitsFromTheCheckpoint) {
   ASSERT_EQ(r.handles.size(), 1u);
   EXPECT_EQ(r.handles[0].substr(r.handles[0].find(':')), ":1");
   EXPECT_EQ(r.rows.size(), 2u);  // rows 2 and 3 after the resume
+}
+
+TEST_F(SlurmCluster, AFreshMemberResumesOnlyACheckpointOfItsOwnScene) {
+  // Another job's checkpoint at this member's path (a second geld on the same shared folder
+  // numbers its jobs from 1 too): refused before anything is submitted, and left untouched.
+  Recorder foreign;
+  auto ctx = context(foreign, "jobJ", "timeout");
+  fs::create_directories(member_dir("jobJ"));
+  std::ofstream(member_dir("jobJ") / "scene.json") << "{\"mode\": \"ok\", \"seed\": 7}";
+  std::ofstream(member_dir("jobJ") / "checkpoint.bin") << "checkpoint";
+  try {
+    geld::make_slurm_executor(options())->run(ctx);
+    ADD_FAILURE() << "a foreign checkpoint was resumed";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("different scene"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(foreign.handles.empty());
+  EXPECT_TRUE(fs::exists(member_dir("jobJ") / "checkpoint.bin"));
+
+  // Its own scene's checkpoint (geld stopped before it saved the handle): resumed.
+  std::ofstream(member_dir("jobJ") / "scene.json") << ctx.scene_json;
+  Recorder own;
+  ctx = context(own, "jobJ", "timeout");
+  const auto result = geld::make_slurm_executor(options())->run(ctx);
+  EXPECT_TRUE(result.finished);
+  ASSERT_EQ(own.handles.size(), 1u);
+  EXPECT_EQ(own.rows.size(), 2u);  // rows 2 and 3: it ran with --resume
 }
 
 TEST_F(SlurmCluster, TimeoutRequeuesWithResume) {
