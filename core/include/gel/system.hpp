@@ -265,7 +265,6 @@ class System {
   std::vector<std::int32_t> wall_candidates_;  // free particles within a + skin of a wall
   std::vector<Candidate> touching_;             // scratch: the candidates that touch this step
   std::vector<std::int32_t> attaching_;         // scratch: the free particles that reach a wall
-  std::vector<double> ref_x_, ref_y_;     // positions at the last rebuild (unused: see travel_)
   double travel_ = 0;                     // bound on displacement since the last rebuild
   double wall_travel_ = 0;
   std::int64_t rebuilds_ = 0;
