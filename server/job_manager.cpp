@@ -536,15 +536,20 @@ gel::v1::Curve JobManager::member_curve(const gel::v1::Job& job, const std::vect
   return curve;
 }
 
+std::vector<gel::v1::Curve> JobManager::member_curves(const gel::v1::Job& job) {
+  const auto rows = store_->rows(job.id());
+  std::vector<gel::v1::Curve> curves;
+  for (int m = 0; m < std::max(1, job.seeds_size()); ++m) curves.push_back(member_curve(job, rows, m));
+  return curves;
+}
+
 gel::v1::GetAnalysisResponse JobManager::analysis(const gel::v1::GetAnalysisRequest& request) {
   const gel::v1::Job job = get(request.job_id());
   // Fits over members of unequal length would mix ensembles of different sizes row by row.
   if (job.state() != gel::v1::JOB_STATE_SUCCEEDED)
     throw ApiError(grpc::StatusCode::FAILED_PRECONDITION,
                    "job " + job.id() + " is " + Store::state_name(job.state()) + "; its analysis needs every member's rows");
-  const auto rows = store_->rows(job.id());
-  std::vector<gel::v1::Curve> curves;
-  for (int m = 0; m < std::max(1, job.seeds_size()); ++m) curves.push_back(member_curve(job, rows, m));
+  const std::vector<gel::v1::Curve> curves = member_curves(job);
   gel::v1::GetAnalysisResponse response;
   response.set_job_id(job.id());
   response.set_members(static_cast<std::int32_t>(curves.size()));

@@ -104,6 +104,8 @@ class JobManager {
   gel::v1::Job cancel(const std::string& id);
   gel::v1::ListJobsResponse list(const gel::v1::ListJobsRequest& request);
   gel::v1::GetCurveResponse curve(const std::string& id);
+  // One curve per member of `job` (index = member), from one read of its stored rows.
+  std::vector<gel::v1::Curve> member_curves(const gel::v1::Job& job);
   gel::v1::GetAnalysisResponse analysis(const gel::v1::GetAnalysisRequest& request);
   gel::v1::QueryCurvesResponse query(const gel::v1::QueryCurvesRequest& request);
   gel::v1::GetLogsResponse logs(const gel::v1::GetLogsRequest& request);

@@ -310,15 +310,15 @@ gel::v1::GetStudyAnalysisResponse StudyManager::analysis(const gel::v1::GetStudy
   std::vector<gel::analysis::StudyEnsembleInput> inputs;
   for (const gel::v1::StudyJob& entry : study.jobs()) {
     const gel::v1::Job job = jobs_.get(entry.job_id());
-    const gel::v1::GetCurveResponse curves = jobs_.curve(entry.job_id());
+    std::vector<gel::v1::Curve> curves = jobs_.member_curves(job);
     gel::analysis::StudyEnsembleInput input;
     input.name = entry.ensemble();
     bool every_dir = true;
-    for (const gel::v1::MemberCurve& member : curves.members()) {
-      if (member.curve().rows_size() == 0) continue;  // partial: a member that has not reached a row
-      input.curves.push_back(member.curve());
-      input.seeds.push_back(member.seed());
-      const std::string dir = jobs_.member_dir(job, member.member());
+    for (int member = 0; member < static_cast<int>(curves.size()); ++member) {
+      if (curves[member].rows_size() == 0) continue;  // partial: a member that has not reached a row
+      input.curves.push_back(std::move(curves[member]));
+      input.seeds.push_back(member < job.seeds_size() ? job.seeds(member) : 0);
+      const std::string dir = jobs_.member_dir(job, member);
       every_dir &= fs::exists(fs::path(dir) / "snapshots");
       input.dirs.push_back(dir);
     }
