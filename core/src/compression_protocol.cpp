@@ -441,8 +441,7 @@ class CompressionRun {
   }
 
   std::int64_t counted_ruptures() const {
-    const EventCounts& e = system_.events();
-    return settings_.exam_all_ruptures ? e.normal + e.sliding + e.rolling : e.normal;
+    return exam_ruptures(system_.events(), settings_.exam_all_ruptures);
   }
 
   void begin_wait() {
@@ -671,6 +670,14 @@ bool equilibrium_reached(const EquilibriumSample& sample, const CompressionSetti
 
 bool equilibrium_reached(const EquilibriumSample& sample, const gel::v1::Compression& compression) {
   return equilibrium_reached(sample, compression_settings(compression));
+}
+
+std::int64_t exam_ruptures(const EventCounts& events, bool all_modes) {
+  return all_modes ? events.normal + events.sliding + events.rolling : events.normal;
+}
+
+std::int64_t exam_ruptures(const EventCounts& events, const gel::v1::Compression& compression) {
+  return exam_ruptures(events, compression_settings(compression).exam_all_ruptures);
 }
 
 bool has_checkpoint(const std::string& out_dir) {

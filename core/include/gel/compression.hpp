@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "gel/configuration.hpp"
+#include "gel/system.hpp"
 #include "gel/v1/scene.pb.h"
 
 namespace gel {
@@ -81,6 +82,14 @@ struct EquilibriumSample {
   bool spans = true;            // the network connects the walls; if not, only rest counts
 };
 bool equilibrium_reached(const EquilibriumSample& sample, const gel::v1::Compression& compression);
+
+// The ruptures the third test counts, from the engine's event counters: a normal break, a
+// sliding reset and a rolling reset each count one (MODEL.md: the published study calls all three
+// "bond ruptures"); with compression.exam_ruptures "normal" (all_modes false) only breaks count.
+// Bonds formed are not ruptures. EquilibriumSample::bond_broke is this count changing since P'.
+std::int64_t exam_ruptures(const EventCounts& events, bool all_modes);
+// The same for a resolved Compression message's exam_ruptures.
+std::int64_t exam_ruptures(const EventCounts& events, const gel::v1::Compression& compression);
 
 // Continues from out_dir's checkpoint (checkpoint.bin, or checkpoint.prev.bin when that cannot
 // be read); the result is identical to an uninterrupted run. Throws InvalidArgument naming
