@@ -18,6 +18,7 @@
 #include <spdlog/spdlog.h>
 
 #include "gel/errors.hpp"
+#include "gel/fnv1a.hpp"
 
 namespace geld {
 
@@ -30,18 +31,6 @@ std::int64_t now_ms() {
 }
 
 namespace {
-// 64-bit FNV-1a as hex: a stable key across processes and machines (std::hash is neither).
-std::string fnv1a_hex(const std::string& text) {
-  std::uint64_t hash = 1469598103934665603ULL;
-  for (const unsigned char c : text) {
-    hash ^= c;
-    hash *= 1099511628211ULL;
-  }
-  char hex[17];
-  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(hash));
-  return hex;
-}
-
 bool is_terminal(JobState state) {
   return state == gel::v1::JOB_STATE_SUCCEEDED || state == gel::v1::JOB_STATE_FAILED ||
          state == gel::v1::JOB_STATE_CANCELLED;
@@ -340,7 +329,7 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
   if (request.seeds_size() == 0) seeds_text = std::to_string(keyed.generator().seed()) + ",";
   for (const std::uint64_t seed : request.seeds()) seeds_text += std::to_string(seed) + ",";
   keyed.mutable_generator()->clear_seed();
-  const std::string cache_key = fnv1a_hex(engine_->scene_json(keyed) + "|" + seeds_text + "|" + version);
+  const std::string cache_key = gel::fnv1a_hex(engine_->scene_json(keyed) + "|" + seeds_text + "|" + version);
   const double no_number = std::numeric_limits<double>::quiet_NaN();
   prepared.parameters.emplace_back("run.cache_key", cache_key, no_number);
   prepared.parameters.emplace_back("run.program_version", version, no_number);

@@ -22,6 +22,7 @@
 #include "gel/compression.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
+#include "gel/fnv1a.hpp"
 #include "gel/export.hpp"
 #include "gel/generator.hpp"
 #include "gel/system.hpp"
@@ -45,15 +46,6 @@ constexpr char kPreviousCheckpointFile[] = "checkpoint.prev.bin";
 constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '5'};
 constexpr char kCheckpointMagicPrefix[7] = {'G', 'E', 'L', 'C', 'K', 'P', 'T'};
 constexpr std::uint32_t kCheckpointFormat = 5;
-
-std::uint64_t fnv1a(const char* data, std::size_t size) {
-  std::uint64_t hash = 14695981039346656037ull;
-  for (std::size_t i = 0; i < size; ++i) {
-    hash ^= static_cast<unsigned char>(data[i]);
-    hash *= 1099511628211ull;
-  }
-  return hash;
-}
 
 // Quasi-static approach: at most this many contact-to-contact jumps per target before the walls
 // move, and the overlap each jump ends with so that the touching pair bonds [a].
@@ -563,7 +555,7 @@ class CompressionRun {
     system_.save_state(*checkpoint.mutable_engine());
     std::string message;
     checkpoint.SerializeToString(&message);
-    const std::uint64_t hash = fnv1a(message.data(), message.size());
+    const std::uint64_t hash = fnv1a(message);
     std::string bytes(kCheckpointMagic, sizeof kCheckpointMagic);
     bytes += message;
     for (int byte = 0; byte < 8; ++byte) bytes.push_back(static_cast<char>((hash >> (8 * byte)) & 0xff));
@@ -751,7 +743,7 @@ LoadedCheckpoint load_checkpoint(const std::string& path) {
   std::uint64_t stored = 0;
   for (int byte = 7; byte >= 0; --byte)
     stored = (stored << 8) | static_cast<unsigned char>(bytes[bytes.size() - 8 + static_cast<std::size_t>(byte)]);
-  if (fnv1a(message.data(), message.size()) != stored) throw InvalidArgument("out_dir", "'" + path + "' is corrupt (checksum mismatch)");
+  if (fnv1a(message) != stored) throw InvalidArgument("out_dir", "'" + path + "' is corrupt (checksum mismatch)");
   LoadedCheckpoint loaded;
   try {
     gel::v1::Checkpoint checkpoint;

@@ -14,6 +14,7 @@
 #include "gel/analysis/fits.hpp"
 #include "gel/configuration.hpp"
 #include "gel/errors.hpp"
+#include "gel/fnv1a.hpp"
 
 namespace gel::analysis {
 namespace {
@@ -387,8 +388,7 @@ double load_structures(const StudyEnsembleInput& e, const StructureOptions& opti
 // that its intervals do not depend on the other ensembles or their order. std::seed_seq and
 // mt19937_64 are specified exactly by the standard: the same numbers with any library.
 std::mt19937_64 resampling_engine(std::uint64_t seed, const std::string& name) {
-  std::uint64_t hash = 14695981039346656037ull;
-  for (unsigned char c : name) hash = (hash ^ c) * 1099511628211ull;
+  const std::uint64_t hash = fnv1a(name);
   std::seed_seq sequence{static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32),
                          static_cast<std::uint32_t>(hash), static_cast<std::uint32_t>(hash >> 32)};
   return std::mt19937_64(sequence);
