@@ -5,7 +5,9 @@
 # report must hold the one table with both ensembles, the numbers as "value [lo, hi]" with 3
 # significant digits, "—" with the reason for what is missing; every PNG it links must exist
 # and be a real PNG; the snapshots come from a fake study directory drawn by the real gelsim; and
-# a JSON of another format is refused with exit code 2 naming the format.
+# a JSON of another format is refused with exit code 2 naming the format. The comparison with the
+# published values (comparison.json) has the required keys for both ensembles, and its verdicts are
+# right on members built to fall inside or outside a published band.
 set -euo pipefail
 GELSIM=${1:?usage: test_reproduction_report.sh GELSIM}
 PYTHON=/usr/bin/python3  # Debian's interpreter: the tool uses the standard library and gnuplot only
@@ -161,7 +163,97 @@ done
 grep -q "Snapshots were not drawn: no gelsim program" "$WORK/nogelsim.md" || fail "no note that snapshots were skipped"
 [ -f "$WORK/nogelsim/compression.png" ] || fail "--figures was not honoured"
 
-# 5. Another format is refused with exit code 2, naming the format; so is a file that is not JSON.
+# 5. The comparison with the published values. The report of step 2 wrote it beside its figures,
+#    from the analysis alone (its --runs directory has no complete member curves).
+CMP="$WORK/report/reproduction/comparison.json"
+[ -s "$CMP" ] || fail "no comparison.json beside the figures"
+grep -q "^## Against the paper" "$MD" || fail "no section Against the paper"
+grep -q "^| observable | bond | published | model \[95 % interval\] | seeds | φ range | verdict | note |" "$MD" \
+  || fail "no table of published values"
+#    A study directory whose members are built so that the verdicts are known: the paper's rows
+#    (phi_k = 0.16 * 1.1^(k-1)); bond1 (4 members): P = s phi^5.8 (lambda_II = 5.8, inside 5.8 +- 0.5;
+#    lambda_III = 5.8, outside 4.3 +- 0.2), first normal break in (0.313, 0.344] in every member (inside
+#    "between 0.31 and 0.34"); bond2 (2 members): P = s phi^7 (lambda_II = 7, outside 5.8 +- 0.4), first
+#    break in (0.285, 0.313] (outside "between 0.42 and 0.46").
+"$PYTHON" - "$WORK/members" <<'PY'
+import json, os, sys
+root = sys.argv[1]
+phis = [0.12] + [0.16 * 1.1 ** (k - 1) for k in range(1, 18)]
+for name, seeds, exponent, first_break in (("bond1", [1, 2, 3, 4], 5.8, 9), ("bond2", [5, 6], 7.0, 8)):
+    for seed in seeds:
+        rows = []
+        for k, phi in enumerate(phis):
+            breaks = max(0, k - first_break + 1)
+            rows.append({"k": k, "phi": phi, "P": (1 + 0.1 * seed) * phi ** exponent, "equilibrated": True,
+                         "spans": k >= 1, "contact_number": 2 + phi, "stored_energy": 1.0 * k,
+                         "dissipated_energy": 2.0 * k, "ruptures": {"normal": breaks, "sliding": 2 * breaks,
+                                                                      "rolling": 10 * k},
+                         "phi_profile": [phi * (0.8 if k == 1 and 8 <= i < 12 else 1.0) for i in range(20)]})
+        folder = os.path.join(root, name, f"seed_{seed}")
+        os.makedirs(folder)
+        json.dump({"particles": 256, "rows": rows}, open(os.path.join(folder, "curve.json"), "w"))
+        json.dump({"format": "gel.member-structure.v1", "options": {"fit_rmin": 2.0, "fit_rmax": 10.0},
+                   "rows": [{"k": k, "xi_05": 30 * (phi / 0.12) ** -1.96} for k, phi in enumerate(phis)]},
+                  open(os.path.join(folder, "structure.json"), "w"))
+PY
+"$PYTHON" "$TOOL" "$WORK/analysis.json" --out "$WORK/members.md" --study "$WORK/members" \
+  --comparison "$WORK/members.json" > "$WORK/out.log" 2>&1 || fail "the tool failed with --study: $(tail -5 "$WORK/out.log")"
+"$PYTHON" - "$CMP" "$WORK/members.json" <<'PY' || fail "the comparison JSON is wrong"
+import json, sys
+required = {"observable", "ensemble", "published", "model", "interval", "seeds", "verdict"}
+for path in sys.argv[1:]:
+    entries = json.load(open(path))
+    assert isinstance(entries, list) and entries, f"{path}: not a non-empty list"
+    for e in entries:
+        assert required <= set(e), f"{path}: {e.get('observable')} lacks {required - set(e)}"
+        assert e["verdict"] in ("inside", "outside", "not comparable"), e
+        assert e["verdict"] != "not comparable" or e["reason"], f"not comparable without a reason: {e}"
+    assert {"bond1", "bond2"} <= {e["ensemble"] for e in entries}, f"{path}: not both ensembles"
+
+def one(entries, ensemble, observable):
+    found = [e for e in entries if e["ensemble"] == ensemble and e["observable"] == observable]
+    assert len(found) == 1, (ensemble, observable, len(found))
+    return found[0]
+
+# From the analysis alone: contact numbers of the synthetic analysis (2 at k = 0: inside [1.5, 2.5];
+# 2 + 2 (0.12 * 1.22^9 - 0.12) = 3.2 at the last row: outside [3.5, 4.5]); the member analyses say why not.
+entries = json.load(open(sys.argv[1]))
+e = one(entries, "bond1", "contact number, initial network")
+assert e["verdict"] == "inside" and abs(e["model"] - 2.0) < 1e-9 and e["seeds"] == 4, e
+e = one(entries, "bond1", "contact number at the last row")
+assert e["verdict"] == "outside" and abs(e["model"] - (2 + 2 * (0.12 * 1.22 ** 9 - 0.12))) < 1e-6, e
+e = one(entries, "bond1", "λ_III: the product's multi-mode plastic fit")
+assert e["verdict"] == "inside" and e["model"] == 4.28 and e["interval"] == [4.2, 4.35], e
+e = one(entries, "bond2", "λ_III: the product's multi-mode plastic fit")
+assert e["verdict"] == "not comparable" and e["reason"] == "no trusted row in the regime", e
+e = one(entries, "bond1", "λ_II, P_y = C φ^λ over the paper's range")
+assert e["verdict"] == "not comparable" and e["model"] is None, e
+
+# From the constructed members.
+entries = json.load(open(sys.argv[2]))
+e = one(entries, "bond1", "λ_II, P_y = C φ^λ over the paper's range")
+assert e["verdict"] == "inside" and abs(e["model"] - 5.8) < 1e-9 and e["seeds"] == 4, e
+assert abs(e["interval"][0] - 5.8) < 1e-9 and abs(e["interval"][1] - 5.8) < 1e-9, e
+assert "k = 4–8" in e["note"], e  # 0.214 ... 0.313: the paper's rows to two digits
+e = one(entries, "bond1", "λ_III, P_y = C φ^λ over the paper's range")
+assert e["verdict"] == "outside" and abs(e["model"] - 5.8) < 1e-9, e
+e = one(entries, "bond2", "λ_II, P_y = C φ^λ over the paper's range")
+assert e["verdict"] == "outside" and abs(e["model"] - 7.0) < 1e-9 and e["interval"] is None and e["seeds"] == 2, e
+e = one(entries, "bond1", "onset of normal breaks, per member (first)")
+assert e["verdict"] == "inside" and abs(e["model"] - (0.16 ** 2 * 1.1 ** 15) ** 0.5) < 1e-9, e
+e = one(entries, "bond2", "onset of normal breaks, per member (first)")
+assert e["verdict"] == "outside" and abs(e["model"] - (0.16 ** 2 * 1.1 ** 13) ** 0.5) < 1e-9, e
+e = one(entries, "bond1", "exponent of ξ^(0.5) ∝ φ^x over all rows with ξ")
+assert e["verdict"] == "inside" and abs(e["model"] + 1.96) < 1e-9, e
+e = one(entries, "bond1", "φ̄(y): middle fifth / mean at φ ≈ 0.16")
+assert e["verdict"] == "inside" and e["model"] < 1, e
+e = one(entries, "bond1", "gel point φ_g, P_y = C′ (φ − φ_g)^λ′ over φ_g < φ < 0.2")
+assert e["verdict"] == "not comparable" and e["reason"].startswith("not determined (3 rows below φ = 0.2"), e
+PY
+grep -Fq "| λ_II, P_y = C φ^λ over the paper's range | bond2 | 5.8 ± 0.4 | 7 |" "$WORK/members.md" \
+  || fail "the members' report does not show bond2's lambda_II against 5.8 ± 0.4"
+
+# 6. Another format is refused with exit code 2, naming the format; so is a file that is not JSON.
 set +e
 "$PYTHON" "$TOOL" "$WORK/other.json" --out "$WORK/other.md" > "$WORK/err" 2>&1
 code=$?
