@@ -29,6 +29,7 @@
 #include "command.hpp"
 #include "duration_text.hpp"
 #include "gel/compression.hpp"
+#include "gel/resources.hpp"
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
@@ -51,6 +52,7 @@ struct CompressArgs {
   double progress_interval = 1.0;
   bool json = false;
   bool no_snapshots = false;
+  bool estimate = false;
   // Protocol and integration overrides (0 / unset: preset or default).
   double phi_max = 0, w0 = 0, v_wall = 0, v_wall_v0 = 0, a = 0, b = 0, max_wait_time = 0, stress_floor = 0;
   double dt = 0, dt_fraction = 0, checkpoint_seconds = 0, adaptive_wall = 0, adaptive_drag_fraction = 0;
@@ -381,6 +383,20 @@ int run_ensemble(const CompressArgs& args) {
 }
 
 int run_compress(const CompressArgs& args) {
+  if (args.estimate) {
+    // What one member will hold and cost (geld admits jobs by the same estimate).
+    if (!args.config_file.empty()) throw gel::InvalidArgument("--estimate", "estimates a generated gel's run: leave out --gel");
+    gel::v1::Scene scene = gel::resolve_compression_scene(build_scene(args));
+    if (args.trajectory_every > 0) scene.mutable_output()->set_trajectory_every(args.trajectory_every);
+    const gel::ResourceEstimate e = gel::estimate_resources(scene, !args.no_snapshots);
+    const nlohmann::json out{{"particles", e.particles}, {"bonds_at_most", e.bonds}, {"neighbour_pairs_at_most", e.neighbour_pairs},
+                             {"rows", e.rows}, {"memory_bytes", e.memory_bytes + gel::kProgramBytes},
+                             {"memory", gel::format_bytes(static_cast<double>(e.memory_bytes + gel::kProgramBytes))},
+                             {"disk_bytes", e.disk_bytes}, {"disk", gel::format_bytes(static_cast<double>(e.disk_bytes))},
+                             {"steps_at_least", e.steps}, {"particle_steps_at_least", e.particle_steps}};
+    std::cout << out.dump(2) << '\n';
+    return 0;
+  }
   if (!args.seeds.empty()) {
     if (args.seed) throw gel::InvalidArgument("--seeds", "give --seed (one run) or --seeds (an ensemble), not both");
     if (!args.config_file.empty()) throw gel::InvalidArgument("--seeds", "an ensemble generates its gels: --gel is for one run");
@@ -486,6 +502,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--progress-interval", args->progress_interval, "seconds between progress messages")->check(CLI::NonNegativeNumber);
   sub.add_flag("--json", args->json, "print the curve as one JSON object (curve.json's format)");
   sub.add_flag("--no-snapshots", args->no_snapshots, "write no configuration snapshots");
+  sub.add_flag("--estimate", args->estimate,
+               "print what one run will hold and cost (memory and disk at most, steps at least) and exit without running");
   sub.add_option("--trajectory-every", args->trajectory_every,
                  "write a GSD trajectory frame every N engine steps (OVITO, gsd.hoomd; README \"Data out\")")
       ->check(CLI::PositiveNumber);

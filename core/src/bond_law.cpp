@@ -22,7 +22,7 @@ BondLaw bond_preset(std::string_view name, const std::string& field) {
     law.f_normal_critical = 5.0;
     law.f_sliding_critical = 5.0;
   } else {
-    throw InvalidArgument(field, "unknown bond preset '" + std::string(name) + "' (known: bond1, bond2)");
+    throw InvalidArgument(field, "unknown bond preset " + quoted(std::string(name)) + " (known: bond1, bond2)");
   }
   constexpr double kCriticalStrain = 0.05;
   law.k_normal = law.f_normal_critical / kCriticalStrain;

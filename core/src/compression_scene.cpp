@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/message.h>
 #include <google/protobuf/util/json_util.h>
 
 #include "gel/compression.hpp"
@@ -70,7 +72,7 @@ Fidelity fidelity_preset(const std::string& name) {
   // fields: a resolved scene's fidelity fields are only derived again when its fidelity changes.
   if (name == "quasistatic" || name == "default") return {1.0, kReferenceMExam, 1.0, false, 1.0, 0.0, true, 4.0};
   throw InvalidArgument("compression.fidelity",
-                        "unknown fidelity '" + name + "' (known: fast, default, paper, quasistatic)");
+                        "unknown fidelity " + quoted(name) + " (known: fast, default, paper, quasistatic)");
 }
 
 // Quasi-static method defaults (docs/quasistatic.md).
@@ -91,6 +93,44 @@ void require_fraction(const std::string& field, double value) {
   require_positive(field, value);
   if (value >= kMaxPackingFraction)
     throw InvalidArgument(field, "must be below the densest packing " + std::to_string(kMaxPackingFraction));
+}
+
+// Every text a scene carries is a name or a choice from a short list, far below 256 bytes; an
+// unbounded one (a 3 MB scene.name was accepted) made each page of ListJobs that listed it larger
+// than a client reads, and an error quoting it larger than a status carries.
+constexpr std::size_t kMaxSceneString = 256;
+constexpr int kMaxSceneListEntries = 64;
+
+void require_bounded_strings(const google::protobuf::Message& message, const std::string& prefix) {
+  using google::protobuf::FieldDescriptor;
+  const auto* reflection = message.GetReflection();
+  std::vector<const FieldDescriptor*> fields;
+  reflection->ListFields(message, &fields);
+  for (const FieldDescriptor* field : fields) {
+    const std::string name = prefix + field->name();
+    if (field->cpp_type() == FieldDescriptor::CPPTYPE_STRING) {
+      auto check = [&](const std::string& value) {
+        if (value.size() > kMaxSceneString)
+          throw InvalidArgument(name, std::to_string(value.size()) + " bytes, the limit is " + std::to_string(kMaxSceneString) +
+                                          ": " + quoted(value));
+      };
+      if (field->is_repeated()) {
+        const int count = reflection->FieldSize(message, field);
+        if (count > kMaxSceneListEntries)
+          throw InvalidArgument(name, std::to_string(count) + " entries, the limit is " + std::to_string(kMaxSceneListEntries));
+        for (int i = 0; i < count; ++i) check(reflection->GetRepeatedString(message, field, i));
+      } else {
+        check(reflection->GetString(message, field));
+      }
+    } else if (field->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE) {
+      if (field->is_repeated()) {
+        for (int i = 0; i < reflection->FieldSize(message, field); ++i)
+          require_bounded_strings(reflection->GetRepeatedMessage(message, field, i), name + ".");
+      } else {
+        require_bounded_strings(reflection->GetMessage(message, field), name + ".");
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -120,8 +160,8 @@ gel::v1::Scene scene_preset(std::string_view name) {
     compression->set_steps(6);
     compression->set_phi_max(0.5);
   } else {
-    throw InvalidArgument("preset", "unknown scene preset '" + std::string(name) +
-                                        "' (known: quick, paper-bond1, paper-bond2, paper-bond1-4x, paper-bond2-4x, paper-bond1-16x, paper-bond2-16x)");
+    throw InvalidArgument("preset", "unknown scene preset " + quoted(std::string(name)) +
+                                        " (known: quick, paper-bond1, paper-bond2, paper-bond1-4x, paper-bond2-4x, paper-bond1-16x, paper-bond2-16x)");
   }
   scene.mutable_generator()->set_seed(1);
   return scene;
@@ -130,6 +170,7 @@ gel::v1::Scene scene_preset(std::string_view name) {
 gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   if (scene.protocol_case() == gel::v1::Scene::kBending)
     throw InvalidArgument("compression", "the scene describes a bending protocol, not a compression");
+  require_bounded_strings(scene, "");
   gel::v1::Scene resolved;
   if (!scene.preset().empty()) resolved = scene_preset(scene.preset());
   // Explicit non-zero fields (and set optional fields) override the preset.
@@ -247,7 +288,10 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   if (c->profile_slices() < 1 || c->profile_slices() > 100000)
     throw InvalidArgument("compression.profile_slices", "must be between 1 and 100000");
   if (c->checkpoint_seconds() == 0.0) c->set_checkpoint_seconds(kDefaultCheckpointSeconds);
-  require_positive("compression.checkpoint_seconds", c->checkpoint_seconds());
+  // Each checkpoint is an fsynced write of the whole state: one every 1e-300 s (one per chunk of
+  // 128 steps) made a run 30x slower. Ten a second at most (a few percent for a paper-size
+  // state), one a day at least.
+  require_within("compression.checkpoint_seconds", c->checkpoint_seconds(), 0.1, 86400.0, "seconds of wall time");
   if (c->rest_speed() == 0.0) c->set_rest_speed(kDefaultRestSpeedFactor * c->v_wall());
   require_positive("compression.rest_speed", c->rest_speed());
   if (c->exam_ruptures().empty()) c->set_exam_ruptures("all");
@@ -271,7 +315,8 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   if (c->relax_force_floor() == 0.0) c->set_relax_force_floor(c->stress_floor() * kRadius * kRadius);
   require_positive("compression.relax_force_floor", c->relax_force_floor());
   if (c->relax_max_iterations() == 0) c->set_relax_max_iterations(kDefaultRelaxIterations);
-  if (c->relax_max_iterations() < 1) throw InvalidArgument("compression.relax_max_iterations", "must be at least 1");
+  if (c->relax_max_iterations() < 1 || c->relax_max_iterations() > 1'000'000'000)
+    throw InvalidArgument("compression.relax_max_iterations", "must be 1 to 1e9 FIRE iterations per strain step");
   if (c->relax_dt_max_factor() == 0.0) c->set_relax_dt_max_factor(kDefaultRelaxDtMax);
   require_positive("compression.relax_dt_max_factor", c->relax_dt_max_factor());
   if (c->relax_dt_max_factor() > 20)

@@ -34,7 +34,7 @@ unsigned parse_effects(const std::vector<std::string>& names) {
     if (!known) {
       std::string list;
       for (const auto& entry : kEffectNames) list += std::string(list.empty() ? "" : ", ") + entry.first;
-      throw InvalidArgument("effects", "unknown effect '" + name + "' (known: " + list + ")");
+      throw InvalidArgument("effects", "unknown effect " + quoted(name) + " (known: " + list + ")");
     }
   }
   return effects;

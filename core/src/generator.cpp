@@ -407,8 +407,8 @@ gel::v1::Generator generator_preset(std::string_view name) {
     g.set_n_floc(16);
     g.set_n_clusters(16);
   } else {
-    throw InvalidArgument("generator.preset", "unknown preset '" + std::string(name) +
-                                                  "' (known: paper-bond1, paper-bond2, quick; paper-bond1-4x, -16x and the same for bond 2)");
+    throw InvalidArgument("generator.preset", "unknown preset " + quoted(std::string(name)) +
+                                                  " (known: paper-bond1, paper-bond2, quick; paper-bond1-4x, -16x and the same for bond 2)");
   }
   return g;
 }
@@ -434,14 +434,17 @@ gel::v1::Generator resolve_generator(const gel::v1::Generator& g) {
   if (r.n_clusters() == 0) throw InvalidArgument("generator.n_clusters", "must be given (no preset sets it)");
   if (r.n_clusters() < 0)
     throw InvalidArgument("generator.n_clusters", "must be positive, got " + std::to_string(r.n_clusters()));
+  // The clusters' random walk is diffusive: the steps to bring them together grow as
+  // 1/walk_step^2, so 0.1 a costs 100x the default 1 a (walk_step = 1e-300 held a worker for
+  // minutes); above one diameter a step would jump over a particle.
   require_positive("generator.walk_step", r.walk_step());
-  if (r.walk_step() > kContact)
-    throw InvalidArgument("generator.walk_step", "must be at most 2 a (one particle diameter), got " + str(r.walk_step()));
+  require_within("generator.walk_step", r.walk_step(), 0.1, kContact, "in a: 0.1 a to one particle diameter");
   require_positive("generator.contact_tolerance", r.contact_tolerance());
   if (r.contact_tolerance() > 1e-3)
     throw InvalidArgument("generator.contact_tolerance", "must be at most 1e-3 a, got " + str(r.contact_tolerance()));
-  if (r.max_attempts() < 0)
-    throw InvalidArgument("generator.max_attempts", "must be positive, got " + std::to_string(r.max_attempts()));
+  if (r.max_attempts() < 0 || r.max_attempts() > 10'000'000)
+    throw InvalidArgument("generator.max_attempts", "must be 1 to 10000000 placement attempts per floc, got " +
+                                                        std::to_string(r.max_attempts()));
 
   const std::int64_t n = static_cast<std::int64_t>(r.n_floc()) * r.n_clusters();
   if (n > std::numeric_limits<std::int32_t>::max())

@@ -37,7 +37,7 @@ const PresetDefinition& find(std::string_view name) {
     if (preset.name == name) return preset;
   std::string known;
   for (const auto& preset : definitions()) known += (known.empty() ? "" : ", ") + std::string(preset.name);
-  throw InvalidArgument("preset", "unknown study preset '" + std::string(name) + "' (known: " + known + ")");
+  throw InvalidArgument("preset", "unknown study preset " + quoted(std::string(name)) + " (known: " + known + ")");
 }
 
 }  // namespace
@@ -86,7 +86,7 @@ void validate_ensemble_name(const std::string& name, const std::string& field) {
     throw InvalidArgument(field, "must be 1-64 characters, got " + std::to_string(name.size()));
   for (const char c : name)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-'))
-      throw InvalidArgument(field, "may hold only letters, digits, '_', '.' and '-': '" + name + "'");
+      throw InvalidArgument(field, "may hold only letters, digits, '_', '.' and '-': " + quoted(name));
   if (name == "." || name == "..") throw InvalidArgument(field, "must not be '.' or '..'");
 }
 

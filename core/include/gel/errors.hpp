@@ -41,5 +41,15 @@ void require_positive(const std::string& field, double value);
 void require_non_negative(const std::string& field, double value);
 // Throws InvalidArgument unless value is finite.
 void require_finite(const std::string& field, double value);
+// Throws InvalidArgument unless lo <= value <= hi; `why` says what the bounds are, in the
+// model's terms (it follows the numbers in the message).
+void require_within(const std::string& field, double value, double lo, double hi, const std::string& why);
+
+// A value quoted in an error message, cut to at most `max_characters` (with "..." and the full
+// length) so that an error about a huge value still fits in a status and names its field.
+std::string quoted(const std::string& value, std::size_t max_characters = 64);
+// The text itself when it has at most max_bytes, else its first max_bytes (cut on a UTF-8
+// character boundary) and "... (N bytes in all)".
+std::string truncated(const std::string& text, std::size_t max_bytes);
 
 }  // namespace gel
