@@ -17,6 +17,7 @@
 #include "gel/system.hpp"
 #include "gel/errors.hpp"
 #include "gel/generator.hpp"
+#include "gel/resources.hpp"
 #include "job_manager.hpp"
 
 namespace geld {
@@ -205,6 +206,7 @@ class CompressionEngine final : public Engine {
                        std::string(wall_too_slow ? "scene.compression.v_wall" : "scene.integration.dt") + ": " + text);
       }
     }
+    prepared.estimate = gel::estimate_resources(prepared.scene);
     prepared.bond_preset = prepared.scene.bond().preset();
     flatten(prepared.scene, "", prepared.parameters);
     prepared.scene_json = gel::scene_to_json(prepared.scene);

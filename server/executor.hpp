@@ -62,6 +62,9 @@ class Executor {
   virtual ~Executor() = default;
   virtual std::string name() const = 0;
   virtual RunResult run(const RunContext& ctx) = 0;
+  // Whether members run inside geld's process (and count against its memory budget,
+  // Limits::max_memory) rather than on other machines.
+  virtual bool runs_in_process() const { return true; }
 };
 
 // What `geld --executor NAME` and the config file give an executor. geld's flags (and config

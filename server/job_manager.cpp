@@ -19,6 +19,7 @@
 
 #include "gel/errors.hpp"
 #include "gel/fnv1a.hpp"
+#include "gel/resources.hpp"
 
 namespace geld {
 
@@ -73,30 +74,96 @@ class WatcherSlot {
 
 }  // namespace
 
+namespace {
+
+void to_message(const gel::ResourceEstimate& e, int members, gel::v1::ResourceEstimate& out) {
+  out.set_particles(e.particles);
+  out.set_bonds(e.bonds);
+  out.set_neighbour_pairs(e.neighbour_pairs);
+  out.set_memory_bytes(e.memory_bytes);
+  out.set_disk_bytes(e.disk_bytes);
+  out.set_steps(e.steps);
+  out.set_particle_steps(e.particle_steps);
+  out.set_members(members);
+}
+
+std::string describe(const gel::ResourceEstimate& e) {
+  return std::to_string(e.particles) + " particles, up to " + std::to_string(e.bonds) + " bonds and " +
+         std::to_string(e.neighbour_pairs) + " neighbour pairs";
+}
+
+// The per-job budgets of Limits, from one member's estimate: each refusal names the field that
+// drives the estimate, the estimate and the limit with the option that sets it.
+void check_job_budgets(const gel::ResourceEstimate& e, int members, const Limits& limits) {
+  const auto refuse = [](const std::string& field, const std::string& text) {
+    throw ApiError(grpc::StatusCode::RESOURCE_EXHAUSTED, field + ": " + text);
+  };
+  if (e.memory_bytes > limits.max_member_memory)
+    refuse("scene." + e.memory_driver, "one member would hold about " + gel::format_bytes(static_cast<double>(e.memory_bytes)) +
+                                           " (" + describe(e) + "), the limit is " +
+                                           gel::format_bytes(static_cast<double>(limits.max_member_memory)) + " (--max-member-memory)");
+  const double disk = static_cast<double>(e.disk_bytes) * members;
+  if (disk > static_cast<double>(limits.max_job_disk))
+    refuse(members > 1 && e.disk_bytes <= limits.max_job_disk ? "seeds" : "scene." + e.disk_driver,
+           "the job's files would take about " + gel::format_bytes(disk) + " (" + std::to_string(members) + " member(s) of " +
+               gel::format_bytes(static_cast<double>(e.disk_bytes)) + "), the limit is " +
+               gel::format_bytes(static_cast<double>(limits.max_job_disk)) + " (--max-job-disk)");
+  const double cost = e.particle_steps * members;
+  if (cost > limits.max_job_particle_steps) {
+    char text[200];
+    std::snprintf(text, sizeof text, "the job would take at least %.3g particle-steps (%d member(s) of %lld particles x %.3g steps), "
+                  "the limit is %.3g (--max-job-particle-steps)", cost, members, static_cast<long long>(e.particles),
+                  static_cast<double>(e.steps), limits.max_job_particle_steps);
+    refuse(members > 1 && e.particle_steps <= limits.max_job_particle_steps ? "seeds" : "scene.generator", text);
+  }
+}
+
+// What geld itself holds besides its members (measured idle: about 20 MB).
+constexpr std::int64_t kDaemonBytes = 64ll << 20;
+
+}  // namespace
+
+std::int64_t JobManager::memory_budget() const {
+  if (options_.limits.max_memory > 0) return options_.limits.max_memory;
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? static_cast<std::int64_t>(pages) * page / 2 : 4ll << 30;
+}
+
+void JobManager::admit_memory(std::int64_t member_memory, int members) const {
+  // Members of a Slurm executor run on the cluster's nodes, not in geld.
+  if (!executor_->runs_in_process()) return;
+  // Any `workers` members of the admitted jobs may run at once: the largest of them must fit.
+  std::vector<std::pair<std::int64_t, int>> admitted;  // (one member's memory, members)
+  for (const auto& [id, live] : live_) admitted.emplace_back(live->member_memory, live->members);
+  admitted.emplace_back(member_memory, members);
+  std::sort(admitted.begin(), admitted.end(), std::greater<>());
+  std::int64_t peak = kDaemonBytes + gel::kProgramBytes;
+  int slots = options_.workers;
+  for (const auto& [memory, count] : admitted) {
+    const int running = std::min(slots, std::max(count, 1));
+    peak += memory * running;
+    slots -= running;
+    if (slots <= 0) break;
+  }
+  const std::int64_t budget = memory_budget();
+  if (peak > budget)
+    throw ApiError(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                   "memory: with this job the " + std::to_string(options_.workers) + " largest members of the " +
+                       std::to_string(live_.size() + 1) + " admitted jobs could hold " +
+                       gel::format_bytes(static_cast<double>(peak)) + " together (this job's members " +
+                       gel::format_bytes(static_cast<double>(member_memory)) + " each), over the daemon's budget of " +
+                       gel::format_bytes(static_cast<double>(budget)) + " (--max-memory); wait for jobs to end or raise it");
+}
+
 JobManager::JobManager(ManagerOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor)
     : options_(std::move(options)), engine_(std::move(engine)), executor_(std::move(executor)) {
   fs::create_directories(fs::path(options_.data_dir) / "jobs");
-  // One daemon per data dir: two would both run the queued jobs, in the same job directories.
-  // flock() is released by the kernel when a daemon dies, so a SIGKILL leaves no stale lock.
-  const std::string lock_path = (fs::path(options_.data_dir) / "geld.lock").string();
-  data_dir_lock_ = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
-  if (data_dir_lock_ < 0) throw std::runtime_error("cannot open " + lock_path + ": " + std::strerror(errno));
-  if (::flock(data_dir_lock_, LOCK_EX | LOCK_NB) != 0) {
-    char holder[32] = {};
-    const ssize_t n = ::pread(data_dir_lock_, holder, sizeof holder - 1, 0);
-    ::close(data_dir_lock_);
-    data_dir_lock_ = -1;
-    std::string pid(holder, n > 0 ? static_cast<std::size_t>(n) : 0);
-    while (!pid.empty() && (pid.back() == '\n' || pid.back() == ' ')) pid.pop_back();
-    throw std::runtime_error("data dir " + options_.data_dir + " is in use by another geld" +
-                             (pid.empty() ? "" : " (pid " + pid + ")") +
-                             ": two daemons on one data dir would run the same jobs");
-  }
-  const std::string pid = std::to_string(::getpid()) + "\n";
-  if (::ftruncate(data_dir_lock_, 0) != 0 || ::pwrite(data_dir_lock_, pid.data(), pid.size(), 0) < 0)
-    spdlog::warn("cannot write the pid into {}", lock_path);
-  store_ = std::make_unique<Store>(options_.db_path.empty() ? (fs::path(options_.data_dir) / "geld.sqlite").string()
-                                                          : options_.db_path);
+  // One daemon per data dir (the jobs tree) and per store (the queue): two would run the same jobs.
+  data_dir_lock_ = OwnerLock::data_dir(options_.data_dir);
+  const std::string db_path =
+      options_.db_path.empty() ? (fs::path(options_.data_dir) / "geld.sqlite").string() : options_.db_path;
+  store_lock_ = OwnerLock::store(db_path);
+  store_ = std::make_unique<Store>(db_path);
   if (options_.workers <= 0) options_.workers = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
@@ -106,13 +173,17 @@ JobManager::~JobManager() {
 }
 
 void JobManager::release_data_dir() {
-  if (data_dir_lock_ < 0) return;
-  ::close(data_dir_lock_);  // releases the flock
-  data_dir_lock_ = -1;
+  data_dir_lock_ = OwnerLock();
+  store_lock_.release();  // unlocked, closed only after the store (see OwnerLock::release)
 }
 
 std::string JobManager::require_id(const std::string& id) {
   if (id.empty()) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "job_id: must not be empty");
+  // Ids are short numbers: a long one is no id, and is not echoed whole in "job ... not found".
+  constexpr std::size_t kMaxIdBytes = 64;
+  if (id.size() > kMaxIdBytes)
+    throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
+                   "job_id: " + std::to_string(id.size()) + " bytes, the limit is " + std::to_string(kMaxIdBytes));
   return id;
 }
 
@@ -127,6 +198,13 @@ void JobManager::start() {
       if (!job) continue;
       auto live = std::make_shared<Live>();
       live->job = *job;
+      // Admitted before the restart: counted, never refused again.
+      try {
+        live->member_memory = gel::estimate_resources(job->scene()).memory_bytes;
+      } catch (const std::exception& e) {
+        spdlog::warn("job {}: no resource estimate for its stored scene ({})", id, e.what());
+      }
+      live->members = job->seeds_size();
       live_[id] = live;
       queue_.push_back(id);
       if (state == gel::v1::JOB_STATE_RUNNING) {
@@ -293,6 +371,7 @@ Engine::Prepared JobManager::validated(const gel::v1::SubmitJobRequest& request)
     if (!valid_utf8(key) || !valid_utf8(value)) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "labels: not valid UTF-8");
   if (!valid_utf8(request.scene_json())) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "scene_json: not valid UTF-8");
   Engine::Prepared prepared = engine_->prepare(request, options_.limits);
+  check_job_budgets(prepared.estimate, std::max(1, request.seeds_size()), options_.limits);
   if (request.seeds_size() > 0) {
     // The members' seeds are what ran: each is queryable as generator.seed, the scene's is not.
     std::erase_if(prepared.parameters, [](const auto& parameter) { return std::get<0>(parameter) == "generator.seed"; });
@@ -366,6 +445,7 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
                      "queue full: " + std::to_string(queue_.size()) + " jobs queued, the limit is " +
                          std::to_string(options_.limits.max_queue));
     }
+    admit_memory(prepared.estimate.memory_bytes, job.seeds_size());
     ++reserved_;
   }
   // Committed before the reply: an acknowledged job is never lost.
@@ -381,6 +461,8 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
     --reserved_;
     auto live = std::make_shared<Live>();
     live->job = job;
+    live->member_memory = prepared.estimate.memory_bytes;
+    live->members = job.seeds_size();
     live_[job.id()] = live;
     queue_.push_back(job.id());
   }
@@ -389,6 +471,7 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
                job.name());
   gel::v1::SubmitJobResponse response;
   response.set_job_id(job.id());
+  to_message(prepared.estimate, job.seeds_size(), *response.mutable_estimate());
   *response.mutable_job() = std::move(job);
   return response;
 }

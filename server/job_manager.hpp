@@ -19,8 +19,10 @@
 #include <grpcpp/support/status.h>
 
 #include "executor.hpp"
+#include "gel/resources.hpp"
 #include "gel/v1/service.pb.h"
 #include "store.hpp"
+#include "store_lock.hpp"
 
 namespace geld {
 
@@ -40,6 +42,15 @@ struct Limits {
   int max_seeds = 1000;                    // ensemble members per job
   int max_watchers = 256;                  // concurrent WatchJob streams, all jobs
   int threads_per_member = 1;              // engine threads of a member whose scene leaves integration.threads 0
+  // Budgets on the resources a job's scene says it will need (gel/resources.hpp), checked at
+  // submission (docs/api.md "Budgets and bounds"):
+  std::int64_t max_member_memory = 4ll << 30;      // one member's state [bytes]
+  std::int64_t max_job_disk = 64ll << 30;          // all members' files [bytes]
+  double max_job_particle_steps = 1e14;            // all members: about 280 core-hours at 1e8/s
+  // What the members running at once may hold together, with geld itself [bytes]: a job is
+  // admitted only if the `workers` largest members of the admitted jobs fit. 0: half the
+  // machine's memory. Only where members run inside geld (the threads executor).
+  std::int64_t max_memory = 0;
 };
 
 // The scene side of jobs: validation, resolution and the curve's JSON shape. The compression
@@ -54,6 +65,7 @@ class Engine {
     // The resolved scene flattened: (dotted name, text value, numeric value or NaN).
     std::vector<std::tuple<std::string, std::string, double>> parameters;
     std::string scene_json;
+    gel::ResourceEstimate estimate;  // one member's
   };
   // Validates and resolves a submission; throws ApiError (INVALID_ARGUMENT naming the field,
   // RESOURCE_EXHAUSTED over the limits).
@@ -138,6 +150,9 @@ class JobManager {
     bool started = false;               // a member has been handed to an executor
     std::atomic<bool> cancel_requested{false};
     std::atomic<bool> stop{false};
+    // Admission (Limits::max_memory): one member's estimated memory and the member count.
+    std::int64_t member_memory = 0;
+    int members = 0;
   };
 
   Engine::Prepared validated(const gel::v1::SubmitJobRequest& request);
@@ -156,9 +171,14 @@ class JobManager {
   static std::string require_id(const std::string& id);
 
   void release_data_dir();
+  // Throws RESOURCE_EXHAUSTED when a job whose members each hold `member_memory` would let
+  // the members that may run at once exceed Limits::max_memory. Called with mutex_ held.
+  void admit_memory(std::int64_t member_memory, int members) const;
+  std::int64_t memory_budget() const;
 
   ManagerOptions options_;
-  int data_dir_lock_ = -1;  // flock()ed data_dir/geld.lock, held while this manager may run jobs
+  OwnerLock data_dir_lock_;  // data_dir/geld.lock, held while this manager may run jobs
+  OwnerLock store_lock_;     // the store file, the same; declared before store_ to outlive it
   std::shared_ptr<Engine> engine_;
   std::shared_ptr<Executor> executor_;
   std::unique_ptr<Store> store_;

@@ -5,14 +5,20 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
+#include <openssl/err.h>
+#include <openssl/pem.h>
+#include <openssl/x509.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -92,7 +98,8 @@ std::string default_gelsim() {
 // A secret others can read is no secret: refused, as ssh refuses a readable private key.
 void require_private_file(const std::string& option, const std::string& path) {
   struct stat info {};
-  if (::stat(path.c_str(), &info) != 0) throw std::invalid_argument(option + ": cannot read " + path);
+  if (::stat(path.c_str(), &info) != 0)
+    throw std::invalid_argument(option + ": cannot read " + path + ": " + std::strerror(errno));
   if ((info.st_mode & 077) != 0) {
     char mode[8];
     std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(info.st_mode & 07777));
@@ -115,12 +122,66 @@ std::string read_token(const std::string& path) {
 std::string read_pem(const std::string& option, const std::string& path, bool secret) {
   if (secret) require_private_file(option, path);
   std::ifstream in(path);
-  if (!in) throw std::invalid_argument(option + ": cannot read " + path);
+  if (!in) throw std::invalid_argument(option + ": cannot read " + path + ": " + std::strerror(errno));
   std::stringstream contents;
   contents << in.rdbuf();
   if (!in || contents.str().find("-----BEGIN ") == std::string::npos)
     throw std::invalid_argument(option + ": " + path + " is not a PEM file");
   return contents.str();
+}
+
+// OpenSSL's reason for the last failure, for a message that says more than "bad file".
+std::string openssl_reason() {
+  const unsigned long code = ERR_peek_last_error();
+  std::string reason = code ? ERR_reason_error_string(code) ? ERR_reason_error_string(code) : "unknown error"
+                            : "no PEM data";
+  ERR_clear_error();
+  return reason;
+}
+
+using Bio = std::unique_ptr<BIO, decltype(&BIO_free)>;
+using Certificate = std::unique_ptr<X509, decltype(&X509_free)>;
+
+Bio memory_bio(const std::string& pem) { return Bio(BIO_new_mem_buf(pem.data(), static_cast<int>(pem.size())), &BIO_free); }
+
+// Every certificate of a PEM file (at least one); the first is the leaf of a chain.
+std::vector<Certificate> read_certificates(const std::string& option, const std::string& path, const std::string& pem) {
+  auto bio = memory_bio(pem);
+  std::vector<Certificate> certificates;
+  while (X509* certificate = PEM_read_bio_X509(bio.get(), nullptr, nullptr, nullptr))
+    certificates.emplace_back(certificate, &X509_free);
+  // The loop ends on "no start line" after the last certificate: a failure only if it was the first,
+  // or if something that looked like a certificate did not parse.
+  const unsigned long code = ERR_peek_last_error();
+  if (certificates.empty() || (code && ERR_GET_REASON(code) != PEM_R_NO_START_LINE))
+    throw std::invalid_argument(option + ": " + path + " is not a PEM certificate (" + openssl_reason() + ")");
+  ERR_clear_error();
+  return certificates;
+}
+
+// gRPC reported every TLS file problem as "cannot listen on HOST:PORT", which named neither the
+// option nor the file: each is checked here first, as gRPC will read it.
+void check_tls_files(const std::string& cert_path, const std::string& cert_pem, const std::string& key_path,
+                     const std::string& key_pem, const std::string& ca_path, const std::string& ca_pem) {
+  ERR_clear_error();
+  const auto chain = read_certificates("tls-cert", cert_path, cert_pem);
+  auto bio = memory_bio(key_pem);
+  // No passphrase callback that prompts: geld runs unattended and gRPC takes no passphrase.
+  auto no_passphrase = [](char*, int, int, void*) { return 0; };
+  std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key(PEM_read_bio_PrivateKey(bio.get(), nullptr, no_passphrase, nullptr),
+                                                          &EVP_PKEY_free);
+  if (!key) {
+    const bool encrypted = key_pem.find("ENCRYPTED") != std::string::npos;
+    const std::string reason = openssl_reason();
+    throw std::invalid_argument("tls-key: " + key_path + (encrypted ? " is an encrypted private key; geld needs it unencrypted"
+                                                                   : " is not a PEM private key (" + reason + ")"));
+  }
+  if (X509_check_private_key(chain.front().get(), key.get()) != 1) {
+    ERR_clear_error();
+    throw std::invalid_argument("tls-key: " + key_path + " does not match the certificate in " + cert_path +
+                                " (--tls-cert)");
+  }
+  if (!ca_path.empty()) read_certificates("tls-client-ca", ca_path, ca_pem);
 }
 
 }  // namespace
@@ -168,6 +229,25 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(1, 1024));
   app.add_option("--max-watchers", limits.max_watchers, "Concurrent WatchJob streams at most")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  // Budgets on what a job's scene says it will need (docs/api.md "Budgets and bounds"); sizes
+  // take a unit (4GiB, 500MB, bytes without one).
+  app.add_option("--max-member-memory", limits.max_member_memory, "Estimated memory of one ensemble member at most")
+      ->capture_default_str()
+      ->transform(CLI::AsSizeValue(false))
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-memory", limits.max_memory,
+                 "Estimated memory of the members that may run at once, with geld, at most (threads executor); 0: half the machine's")
+      ->capture_default_str()
+      ->transform(CLI::AsSizeValue(false))
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--max-job-disk", limits.max_job_disk, "Estimated files of all of a job's members at most")
+      ->capture_default_str()
+      ->transform(CLI::AsSizeValue(false))
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-job-particle-steps", limits.max_job_particle_steps,
+                 "Particles x steps of all of a job's members at most (1e8 a second on one core)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off")->capture_default_str();
@@ -232,6 +312,8 @@ int main(int argc, char** argv) {
       options.tls.certificate_chain = read_pem("tls-cert", tls_cert, false);
       options.tls.private_key = read_pem("tls-key", tls_key, true);
       if (!tls_client_ca.empty()) options.tls.client_ca = read_pem("tls-client-ca", tls_client_ca, false);
+      check_tls_files(tls_cert, options.tls.certificate_chain, tls_key, options.tls.private_key, tls_client_ca,
+                      options.tls.client_ca);
     }
     fs::create_directories(options.manager.data_dir);
     executor_config.data_dir = fs::absolute(options.manager.data_dir).string();

@@ -1,5 +1,7 @@
 #include "service.hpp"
 
+#include "gel/errors.hpp"
+
 #include <arpa/inet.h>
 
 #include <chrono>
@@ -10,6 +12,7 @@
 #include <grpcpp/support/server_interceptor.h>
 #include <spdlog/spdlog.h>
 
+#include "gel/errors.hpp"
 #include "store.hpp"
 
 namespace geld {
@@ -133,6 +136,16 @@ grpc::Status TokenCheck::check(const grpc::ServerContextBase& context) const {
   return check_metadata(context.client_metadata(), token_);
 }
 
+namespace {
+// A status's message travels in a header (grpc-message, percent-encoded: up to 3 bytes a byte)
+// under the client's 8 KiB metadata limit; past it the client sees RESOURCE_EXHAUSTED instead of
+// the error. Messages start with the field they are about, so cutting the end keeps it.
+constexpr std::size_t kMaxStatusMessage = 1024;
+grpc::Status status(grpc::StatusCode code, const std::string& message) {
+  return {code, gel::truncated(message, kMaxStatusMessage)};
+}
+}  // namespace
+
 template <class F>
 grpc::Status GelServiceImpl::guarded(grpc::ServerContext* context, const char* method, F&& body) {
   if (auto status = auth_->check(*context); !status.ok()) {
@@ -143,14 +156,14 @@ grpc::Status GelServiceImpl::guarded(grpc::ServerContext* context, const char* m
     body();
     return grpc::Status::OK;
   } catch (const ApiError& e) {
-    spdlog::debug("{}: {} {}", method, static_cast<int>(e.code()), e.what());
-    return {e.code(), e.what()};
+    spdlog::debug("{}: {} {}", method, static_cast<int>(e.code()), gel::truncated(e.what(), kMaxStatusMessage));
+    return status(e.code(), e.what());
   } catch (const StoreError& e) {
     spdlog::error("{}: store: {}", method, e.what());
-    return {grpc::StatusCode::INTERNAL, std::string("store: ") + e.what()};
+    return status(grpc::StatusCode::INTERNAL, std::string("store: ") + e.what());
   } catch (const std::exception& e) {
     spdlog::error("{}: {}", method, e.what());
-    return {grpc::StatusCode::INTERNAL, e.what()};
+    return status(grpc::StatusCode::INTERNAL, e.what());
   }
 }
 

@@ -369,6 +369,7 @@ class SlurmExecutor final : public Executor {
  public:
   explicit SlurmExecutor(SlurmOptions options) : options_(std::move(options)) {}
   std::string name() const override { return "slurm"; }
+  bool runs_in_process() const override { return false; }
   RunResult run(const RunContext& ctx) override;
 
  private:

@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <tuple>
 
 #include <sqlite3.h>
@@ -316,12 +317,21 @@ Store::Store(const std::string& path) {
 }
 
 // A damaged file used to open fine and fail later, job by job, with whatever page a query
-// happened to touch. quick_check reads every page once (seconds for a store of a few hundred MB)
-// and checks the b-trees, so a daemon refuses to start on it and says what to do instead.
+// happened to touch, so a daemon refuses to start on it and says what to do instead.
+// quick_check reads every page once and checks the b-trees, but not that each index holds the
+// rows of its table: it passed 4 of 12 random 16-byte overwrites that integrity_check caught, and
+// geld then wrote new rows through the damaged index. integrity_check also looks every row up in
+// every index. Measured (SQLite 3.40.1, 2 shared cores, file in the page cache): 5,000 jobs of 21
+// rows each, 105 MB: 0.5 s against quick_check's 0.2 s; 48,000 such jobs, 1 GiB: 7.5 s against
+// 2 s. Above kFullCheckBytes a start would wait longer than a restart should, so quick_check it is.
 void Store::check_integrity(const std::string& path) {
+  constexpr std::uintmax_t kFullCheckBytes = std::uintmax_t{1} << 30;
+  std::error_code ec;
+  const std::uintmax_t bytes = std::filesystem::file_size(path, ec);
+  const bool full = !ec && bytes <= kFullCheckBytes;
   std::vector<std::string> problems;
   try {
-    Stmt check(db_, "PRAGMA quick_check(5)");
+    Stmt check(db_, full ? "PRAGMA integrity_check(5)" : "PRAGMA quick_check(5)");
     while (check.step()) problems.push_back(check.text(0));
   } catch (const StoreError& error) {  // a header too damaged for the check itself to run
     problems = {error.what()};

@@ -5,12 +5,17 @@ SIGKILLed and restarted at random moments; then every promise is checked.
     soak.py --build BUILD_DIR [--seconds 60] [--clients 6] [--seed 1]     # CI runs the short form
     soak.py --build build --seconds 600 --clients 16                       # the long form
 
+One more client is hostile but valid: it submits the largest scenes the daemon's memory budget
+(--max-memory, advertised as --max-rss-mb) admits, jobs of many members, and absurd values that
+the bounds must refuse, and cancels its large jobs again so that the soak can end.
+
 Checks after the storm (geld restarted one last time and left to finish every job):
   * every job whose SubmitJob was acknowledged is listed exactly once, and nothing else is;
   * every job ended, and ended exactly once (one terminal state in the store's history);
   * succeeded jobs have all their rows, no (member, k) stored twice, for every member;
   * PRAGMA integrity_check of the store is ok;
-  * geld's peak resident memory stayed under --max-rss-mb.
+  * geld's peak resident memory stayed under --max-rss-mb, the budget it was started with;
+  * every absurd submission was refused with INVALID_ARGUMENT, none accepted.
 Loopback only; every loop is bounded by the deadline. Uses Debian's python3-grpcio and the
 project's generated stubs (BUILD_DIR/client/python). Exit status 0 only when every check holds.
 """
@@ -37,24 +42,24 @@ def free_port():
 class Daemon:
     """geld on a fixed loopback port and data dir, killed and restarted at will."""
 
-    def __init__(self, geld, data_dir, port):
+    def __init__(self, geld, data_dir, port, memory_budget_bytes):
         self.geld, self.data_dir, self.port = geld, data_dir, port
+        self.options = ["--workers", "2", "--log-level", "warn", "--max-memory", str(memory_budget_bytes)]
         self.process = None
         self.kills = 0
         self.peak_rss_kb = 0
         self.log = open(os.path.join(data_dir, "..", "geld.log"), "ab")
 
     def start(self, deadline=30.0):
-        self.process = subprocess.Popen([self.geld, "--listen", f"127.0.0.1:{self.port}", "--data-dir", self.data_dir,
-                                         "--workers", "2", "--log-level", "warn"], stdout=self.log, stderr=self.log)
+        self.process = subprocess.Popen([self.geld, "--listen", f"127.0.0.1:{self.port}", "--data-dir", self.data_dir]
+                                        + self.options, stdout=self.log, stderr=self.log)
         end = time.time() + deadline
         while time.time() < end:
             if self.process.poll() is not None:
                 # The port of the killed daemon may linger a moment: try again.
                 time.sleep(0.2)
                 self.process = subprocess.Popen([self.geld, "--listen", f"127.0.0.1:{self.port}", "--data-dir",
-                                                 self.data_dir, "--workers", "2", "--log-level", "warn"],
-                                                stdout=self.log, stderr=self.log)
+                                                 self.data_dir] + self.options, stdout=self.log, stderr=self.log)
                 continue
             try:
                 with socket.create_connection(("127.0.0.1", self.port), timeout=0.2):
@@ -106,7 +111,8 @@ def main():
     work = tempfile.mkdtemp(prefix="geld-soak.")
     data_dir = os.path.join(work, "data")
     os.makedirs(data_dir)
-    daemon = Daemon(os.path.join(args.build, "server", "geld"), data_dir, free_port())
+    # The budget geld advertises (--max-memory) is the bound its peak resident memory is held to.
+    daemon = Daemon(os.path.join(args.build, "server", "geld"), data_dir, free_port(), int(args.max_rss_mb * 2**20))
     # Whatever goes wrong below (an assertion, a gRPC error), no geld is left running.
     atexit.register(lambda: daemon.process is not None and daemon.process.poll() is None and daemon.process.kill())
     daemon.start()
@@ -116,6 +122,8 @@ def main():
     lock = threading.Lock()
     acknowledged = {}  # job id -> number of seeds
     counts = {"submits": 0, "cancels": 0, "watches": 0, "lists": 0, "errors": 0}
+    hostile_counts = {"large admitted": 0, "over budget": 0, "absurd refused": 0, "absurd accepted": 0, "errors": 0}
+    hostile_jobs = []
     deadline = time.time() + args.seconds
 
     def tiny_scene(seed):
@@ -179,7 +187,66 @@ def main():
                     counts["errors"] += 1
                 time.sleep(0.05)
 
+    def hostile():
+        """The largest scenes the budget admits, many members, absurd values; in a fixed cycle."""
+        def large(preset, members):
+            return service_pb2.SubmitJobRequest(scene=scene_pb2.Scene(preset=preset), seeds=range(1, members + 1),
+                                                name="hostile", rerun=True)
+
+        def absurd(change):
+            scene = tiny_scene(1)
+            change(scene)
+            return service_pb2.SubmitJobRequest(scene=scene, name="hostile-absurd")
+
+        def skin(scene):
+            scene.integration.skin = 1e300
+
+        def walk(scene):
+            scene.generator.walk_step = 1e-300
+
+        def checkpoint(scene):
+            scene.compression.checkpoint_seconds = 1e-300
+
+        def name(scene):
+            scene.name = "n" * 3_000_000
+        cycle = [large("paper-bond1-16x", 2), large("paper-bond1-16x", 2), large("paper-bond1-4x", 100),
+                 absurd(skin), absurd(walk), absurd(checkpoint), absurd(name), None]
+        step = 0
+        while time.time() < deadline:
+            request = cycle[step % len(cycle)]
+            step += 1
+            try:
+                if request is None:  # cancel the large jobs so far, as a user would
+                    with lock:
+                        ids = list(hostile_jobs)
+                    for job_id in ids:
+                        try:
+                            stub.CancelJob(service_pb2.CancelJobRequest(job_id=job_id), timeout=25)
+                        except grpc.RpcError as error:
+                            if error.code() != grpc.StatusCode.FAILED_PRECONDITION:
+                                raise
+                else:
+                    reply = stub.SubmitJob(request, timeout=30)
+                    with lock:
+                        if request.name == "hostile":
+                            acknowledged[reply.job_id] = len(request.seeds)
+                            hostile_jobs.append(reply.job_id)
+                            hostile_counts["large admitted"] += 1
+                        else:
+                            acknowledged[reply.job_id] = 1
+                            hostile_counts["absurd accepted"] += 1
+            except grpc.RpcError as error:
+                with lock:
+                    if error.code() == grpc.StatusCode.RESOURCE_EXHAUSTED:
+                        hostile_counts["over budget"] += 1
+                    elif error.code() == grpc.StatusCode.INVALID_ARGUMENT and request.name == "hostile-absurd":
+                        hostile_counts["absurd refused"] += 1
+                    else:
+                        hostile_counts["errors"] += 1
+            time.sleep(0.5)
+
     threads = [threading.Thread(target=client, args=(n,), daemon=True) for n in range(args.clients)]
+    threads.append(threading.Thread(target=hostile, daemon=True))
     for thread in threads:
         thread.start()
     while time.time() < deadline:
@@ -209,6 +276,13 @@ def main():
                     raise
                 time.sleep(0.25)
     failures = []
+    # The large jobs run for hours: cancelled now (a cancel sent before a kill may have been lost).
+    for job_id in hostile_jobs:
+        try:
+            settled(stub.CancelJob, service_pb2.CancelJobRequest(job_id=job_id))
+        except grpc.RpcError as error:
+            if error.code() != grpc.StatusCode.FAILED_PRECONDITION:
+                raise
     # Sanitized builds (GEL_SANITIZED=1 under ctest) run every job several times slower.
     slowdown = 4.0 if os.environ.get("GEL_SANITIZED") == "1" else 1.0
     finish_by = time.time() + slowdown * max(300.0, 2 * args.seconds)
@@ -266,12 +340,16 @@ def main():
     states = dict(store.execute("SELECT state, COUNT(*) FROM jobs GROUP BY state").fetchall())
     peak_mb = daemon.peak_rss_kb / 1024
     if peak_mb > args.max_rss_mb:
-        failures.append(f"geld peak resident memory {peak_mb:.0f} MB > {args.max_rss_mb:.0f} MB")
+        failures.append(f"geld peak resident memory {peak_mb:.0f} MB > {args.max_rss_mb:.0f} MB, the budget it advertised")
+    if hostile_counts["absurd accepted"]:
+        failures.append(f"{hostile_counts['absurd accepted']} absurd submissions were accepted")
+    if hostile_counts["large admitted"] == 0:
+        failures.append("no large job was admitted: the hostile client tested nothing")
 
     unacknowledged = len(set(listed) - set(acknowledged))
     print(f"soak: {args.seconds:.0f} s, {args.clients} clients, {daemon.kills} SIGKILLs; {storm_counts}; "
           f"{len(acknowledged)} acknowledged jobs (+{unacknowledged} whose reply a kill lost); final states {states}; "
-          f"peak RSS {peak_mb:.0f} MB")
+          f"peak RSS {peak_mb:.0f} MB of a {args.max_rss_mb:.0f} MB budget; hostile client {hostile_counts}")
     for failure in failures:
         print("FAIL:", failure)
     if not failures:

@@ -30,6 +30,7 @@
 #include "executor.hpp"
 #include "gel/compression.hpp"
 #include "gel/errors.hpp"
+#include "gel/resources.hpp"
 #include "gel/v1/service.grpc.pb.h"
 #include "job_manager.hpp"
 #include "service.hpp"
@@ -595,6 +596,132 @@ TEST_F(Service, TooManyParticlesIsResourceExhausted) {
   for (int i = 0; i < 1001; ++i) many.add_seeds(static_cast<std::uint64_t>(i) + 1);
   gel::v1::SubmitJobResponse response;
   EXPECT_EQ(stub_->SubmitJob(ctx().get(), many, &response).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+}
+
+// Finite values far outside the model's range (each held a worker, slowed a run 30x or took
+// geld to gigabytes before its bound existed) are refused at submission, naming the field.
+TEST_F(Service, AbsurdFiniteValuesAreRefusedByTheirPhysicalBounds) {
+  start();
+  const std::vector<std::pair<std::string, nlohmann::json>> cases = {
+      {"scene.integration.skin", {{"integration", {{"skin", 1e300}}}}},
+      {"scene.generator.walk_step", {{"generator", {{"walk_step", 1e-300}}}}},
+      {"scene.compression.checkpoint_seconds", {{"compression", {{"checkpoint_seconds", 1e-300}}}}},
+      {"scene.integration.eta_factor", {{"integration", {{"eta_factor", 1e300}}}}},
+      {"scene.integration.dt_fraction", {{"integration", {{"dt_fraction", 1e-300}}}}},
+  };
+  for (const auto& [field, change] : cases) {
+    nlohmann::json scene = nlohmann::json::parse(tiny_scene_json());
+    scene.merge_patch(change);
+    std::string id;
+    const grpc::Status status = submit(scene.dump(), &id);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << field << ": " << status.error_message();
+    EXPECT_EQ(status.error_message().rfind(field + ":", 0), 0u) << status.error_message();
+  }
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 0);
+}
+
+// Every text of a scene is capped, and an error quoting a huge value still arrives whole as
+// INVALID_ARGUMENT naming its field (a 16 kB value once made the status too large for the
+// client's metadata limit: RESOURCE_EXHAUSTED with no field).
+TEST_F(Service, HugeStringsAreRefusedNamingTheirFieldInAStatusThatArrives) {
+  start();
+  const std::string huge(3'000'000, 'x'), long_choice(16'000, 'y');
+  const std::vector<std::pair<std::string, nlohmann::json>> cases = {
+      {"scene.name", {{"name", huge}}},
+      {"scene.compression.fidelity", {{"compression", {{"fidelity", long_choice}}}}},
+      {"scene.bond.preset", {{"bond", {{"preset", long_choice}}}}},
+      {"scene.effects", {{"effects", {long_choice}}}},
+      {"scene.generator.preset", {{"generator", {{"preset", long_choice}}}}},
+  };
+  for (const auto& [field, change] : cases) {
+    nlohmann::json scene = nlohmann::json::parse(tiny_scene_json());
+    scene.merge_patch(change);
+    std::string id;
+    const grpc::Status status = submit(scene.dump(), &id);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << field << ": " << status.error_message().substr(0, 200);
+    EXPECT_EQ(status.error_message().rfind(field, 0), 0u) << status.error_message().substr(0, 200);
+    EXPECT_LT(status.error_message().size(), 1200u);
+  }
+  // A job id longer than any id is refused as such, not looked up and echoed.
+  gel::v1::GetJobRequest get_request;
+  get_request.set_job_id(std::string(1'000'000, '7'));
+  gel::v1::Job job;
+  const grpc::Status get_status = stub_->GetJob(ctx().get(), get_request, &job);
+  EXPECT_EQ(get_status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(get_status.error_message(), "job_id: 1000000 bytes, the limit is 64");
+  // At the cap it is accepted.
+  nlohmann::json scene = nlohmann::json::parse(tiny_scene_json());
+  scene["name"] = std::string(256, 'n');
+  EXPECT_FALSE(submit_ok(scene.dump()).empty());
+}
+
+// What a job's scene will hold and cost is estimated at submission and refused over a budget,
+// naming the field that drives the estimate; the estimate comes back with an admitted job.
+TEST_F(Service, JobsOverAResourceBudgetAreRefusedNamingTheEstimate) {
+  const gel::ResourceEstimate estimate =
+      gel::estimate_resources(gel::resolve_compression_scene(gel::scene_from_json(tiny_scene_json())));
+  ASSERT_GT(estimate.particle_steps, 0);
+  geld::Limits limits;
+  limits.max_member_memory = estimate.memory_bytes - 1;
+  start(limits);
+  std::string id;
+  grpc::Status status = submit(tiny_scene_json(), &id);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_EQ(status.error_message().rfind("scene.generator: one member would hold about", 0), 0u) << status.error_message();
+  EXPECT_NE(status.error_message().find("--max-member-memory"), std::string::npos) << status.error_message();
+  stop();
+
+  limits = {};
+  limits.max_job_particle_steps = 2.5 * estimate.particle_steps;  // two members fit, three do not
+  start(limits);
+  gel::v1::SubmitJobRequest request;
+  request.set_scene_json(tiny_scene_json());
+  request.set_rerun(true);
+  request.add_seeds(1);
+  request.add_seeds(2);
+  gel::v1::SubmitJobResponse response;
+  status = stub_->SubmitJob(ctx().get(), request, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(response.estimate().particles(), 64);
+  EXPECT_EQ(response.estimate().members(), 2);
+  EXPECT_EQ(response.estimate().memory_bytes(), estimate.memory_bytes);
+  EXPECT_EQ(response.estimate().particle_steps(), estimate.particle_steps);
+  request.add_seeds(3);
+  status = stub_->SubmitJob(ctx().get(), request, &response);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(status.error_message().rfind("seeds: the job would take at least", 0), 0u) << status.error_message();
+  stop();
+
+  limits = {};
+  limits.max_job_disk = estimate.disk_bytes / 2;
+  start(limits);
+  status = submit(tiny_scene_json(), &id);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(status.error_message().rfind("scene.generator: the job's files would take about", 0), 0u) << status.error_message();
+}
+
+// Admission counts the jobs already admitted: with two workers, two members that each fit
+// alone cannot both be admitted when together they exceed the daemon's memory budget; once
+// the first job ends, the second is admitted.
+TEST_F(Service, AdmissionCountsTheMembersThatMayRunAtOnce) {
+  const gel::ResourceEstimate estimate =
+      gel::estimate_resources(gel::resolve_compression_scene(gel::scene_from_json(tiny_scene_json())));
+  Script& script = make_script();
+  script.rows = 2;
+  script.open_rows = 1;
+  geld::Limits limits;
+  // geld's own share (64 MiB), one program (16 MiB) and one and a half members.
+  limits.max_memory = (80ll << 20) + estimate.memory_bytes * 3 / 2;
+  start(limits, 2, scripted(script));
+  const std::string first = submit_ok(tiny_scene_json());
+  std::string id;
+  grpc::Status status = submit(tiny_scene_json(), &id);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  EXPECT_EQ(status.error_message().rfind("memory: with this job the 2 largest members", 0), 0u) << status.error_message();
+  EXPECT_NE(status.error_message().find("--max-memory"), std::string::npos);
+  script.open();
+  ASSERT_TRUE(wait_for([&] { return get(first).state() == gel::v1::JOB_STATE_SUCCEEDED; }));
+  ASSERT_TRUE(wait_for([&] { return submit(tiny_scene_json(), &id).ok(); }, 10s));
 }
 
 // One unary call of `method` with the request's raw bytes, through a generic stub.

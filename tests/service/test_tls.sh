@@ -3,7 +3,9 @@
 # client gets nothing; a TLS client that trusts the CA and carries the token is served; the
 # same without the token is refused; with --tls-client-ca a client without a certificate cannot
 # connect and one with a certificate signed by that CA is served. Bad TLS options are refused
-# at start. The client is Debian's python3-grpcio with the project's stubs.
+# at start (exit 2), each naming the option, the file and what is wrong with it: a key that does
+# not match its certificate, a certificate that does not parse, a key given as a certificate.
+# The client is Debian's python3-grpcio with the project's stubs.
 #
 #   test_tls.sh BUILD_DIR
 set -euo pipefail
@@ -12,14 +14,7 @@ geld=$build/server/geld
 gelctl=$build/client/gelctl
 py=/usr/bin/python3
 work=$(mktemp -d /tmp/geld-tls.XXXXXX)
-geld_pid=
-stop_geld() {
-  if [ -n "$geld_pid" ]; then
-    kill -TERM "$geld_pid" 2>/dev/null || true
-    wait "$geld_pid" 2>/dev/null || true
-    geld_pid=
-  fi
-}
+source "$(dirname "$0")/geld_lib.sh"
 trap 'stop_geld; rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*" >&2; [ -f "$work/geld.log" ] && tail -5 "$work/geld.log" >&2; exit 1; }
 command -v openssl > /dev/null || fail "openssl is needed to make the test certificates"
@@ -98,7 +93,7 @@ stop_geld
 refused() {
   set +e
   timeout 10 "$geld" --listen "127.0.0.1:$port" --data-dir "$work/data" --token-file token "$@" > "$work/refused.log" 2>&1
-  local code=$?
+  code=$?
   set -e
   [ "$code" -ne 0 ] && [ "$code" -ne 124 ] || fail "geld started with $*"
 }
@@ -110,4 +105,24 @@ grep -q "readable by others" refused.log || fail "a readable key: $(cat refused.
 chmod 600 server.key
 refused --tls-cert san.ext --tls-key server.key
 grep -q "not a PEM file" refused.log || fail "a non-PEM certificate: $(cat refused.log)"
+# Files that are PEM but not what the option needs were reported as "cannot listen on
+# 127.0.0.1:PORT" (gRPC's failure to build its TLS context), naming neither option nor file.
+openssl req -newkey rsa:2048 -nodes -keyout other.key -out other.csr -subj "/CN=other" 2> /dev/null
+chmod 600 other.key
+refused --tls-cert server.pem --tls-key other.key
+grep -q "tls-key: other.key does not match the certificate in server.pem" refused.log || fail "a mismatched key: $(cat refused.log)"
+[ "$code" -eq 2 ] || fail "a mismatched key: exit $code, expected 2 (configuration)"
+printf -- '-----BEGIN CERTIFICATE-----\nbm90IGEgY2VydGlmaWNhdGU=\n-----END CERTIFICATE-----\n' > garbage.pem
+refused --tls-cert garbage.pem --tls-key server.key
+grep -q "tls-cert: garbage.pem is not a PEM certificate" refused.log || fail "a garbage certificate: $(cat refused.log)"
+[ "$code" -eq 2 ] || fail "a garbage certificate: exit $code, expected 2 (configuration)"
+refused --tls-cert server.key --tls-key server.key
+grep -q "tls-cert: server.key is not a PEM certificate" refused.log || fail "a key as the certificate: $(cat refused.log)"
+cp ca.pem cert-as-key.pem && chmod 600 cert-as-key.pem
+refused --tls-cert server.pem --tls-key cert-as-key.pem
+grep -q "tls-key: cert-as-key.pem is not a PEM private key" refused.log || fail "a certificate as the key: $(cat refused.log)"
+refused --tls-cert server.pem --tls-key server.key --tls-client-ca garbage.pem
+grep -q "tls-client-ca: garbage.pem is not a PEM certificate" refused.log || fail "a garbage client CA: $(cat refused.log)"
+refused --tls-cert missing.pem --tls-key server.key
+grep -q "tls-cert: cannot read missing.pem" refused.log || fail "a missing certificate: $(cat refused.log)"
 echo "tls: plain text refused, token still required, mutual TLS enforced, bad options refused"
