@@ -1,4 +1,5 @@
 #include "gel/analysis/curve_analysis.hpp"
+#include "gel/analysis/ensemble_statistic.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -90,15 +91,10 @@ MeanStd mean_std(const std::vector<std::vector<double>>& members) {
   for (const auto& m : members) length = std::min(length, m.size());
   result.mean.assign(length, 0.0);
   result.std.assign(length, 0.0);
-  const double n = static_cast<double>(members.size());
+  std::vector<double> column(members.size());
   for (std::size_t i = 0; i < length; ++i) {
-    double sum = 0;
-    for (const auto& m : members) sum += m[i];
-    const double mean = sum / n;
-    double squares = 0;
-    for (const auto& m : members) squares += (m[i] - mean) * (m[i] - mean);
-    result.mean[i] = mean;
-    result.std[i] = members.size() > 1 ? std::sqrt(squares / (n - 1)) : 0.0;
+    for (std::size_t m = 0; m < members.size(); ++m) column[m] = members[m][i];
+    mean_and_std(column, result.mean[i], result.std[i]);
   }
   return result;
 }
@@ -189,14 +185,17 @@ CurveEnsemble curve_ensemble(const std::vector<gel::v1::Curve>& curves) {
       {"ruptures_rolling", [](const auto& r) { return static_cast<double>(r.ruptures().rolling()); }},
       {"bonds_created", [](const auto& r) { return static_cast<double>(r.ruptures().created()); }},
   };
+  // The product's one statistic (ensemble_statistic.hpp), kept on the rows every member reached.
+  std::vector<const gel::v1::Curve*> members;
+  for (const auto& c : curves) members.push_back(&c);
   for (const auto& [name, value] : row_values) {
-    std::vector<std::vector<double>> members;
-    for (const auto& c : curves) {
-      std::vector<double> v;
-      for (int k = 0; k < rows; ++k) v.push_back(value(c.rows(k)));
-      members.push_back(std::move(v));
+    MeanStd& row = ensemble.rows[name];
+    row.members = ensemble.members;
+    for (const RowStatistic& s : ensemble_statistic(members, value)) {
+      if (s.n != ensemble.members) break;
+      row.mean.push_back(s.mean);
+      row.std.push_back(s.std);
     }
-    ensemble.rows[name] = mean_std(members);
   }
   using IncrementValue = std::function<double(const Increment&)>;
   const std::vector<std::pair<std::string, IncrementValue>> interval_values = {

@@ -1,4 +1,5 @@
 #include "gel/analysis/run_analysis.hpp"
+#include "gel/analysis/ensemble_statistic.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -186,6 +187,7 @@ nlohmann::json to_json(const OptionalMeanStd& v) {
 nlohmann::json to_json(const CurveAnalysis& a) {
   nlohmann::json j;
   j["members"] = a.ensemble.members;
+  j["ensemble_rule"] = kCompleteRowsRule;
   nlohmann::json rows = nlohmann::json::object();
   for (const auto& [name, v] : a.ensemble.rows) rows[name] = to_json(v);
   j["rows"] = rows;
