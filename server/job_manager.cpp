@@ -17,9 +17,11 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "gel/analysis/ensemble_statistic.hpp"
 #include "gel/errors.hpp"
 #include "gel/fnv1a.hpp"
 #include "gel/resources.hpp"
+#include "gel/seed.hpp"
 
 namespace geld {
 
@@ -336,19 +338,19 @@ std::int64_t parse_page_token(const std::string& token, const std::string& metho
   return before;
 }
 
+// Labels are listed with every job: 20 000 of them made ListJobs answers too large to read.
+constexpr int kMaxLabels = 64;
+
 Engine::Prepared JobManager::validated(const gel::v1::SubmitJobRequest& request) {
-  // Seed 0 means "the default" in a scene and resolves to 1: in a list it would run seed 1 while
-  // being recorded as 0, and {0, 1} would give two identical members.
+  // gelsim's rule (gel/seed.hpp): 0 would run as seed 1 while being recorded as 0.
   for (int i = 0; i < request.seeds_size(); ++i)
-    if (request.seeds(i) == 0)
-      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "seeds[" + std::to_string(i) + "]: 0 is not a seed; seeds start at 1");
+    if (const std::string problem = gel::seed_problem(request.seeds(i)); !problem.empty())
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "seeds[" + std::to_string(i) + "]: " + problem);
   if (request.seeds_size() > options_.limits.max_seeds) {
     throw ApiError(grpc::StatusCode::RESOURCE_EXHAUSTED,
                    "seeds: " + std::to_string(request.seeds_size()) + " ensemble members, the limit is " +
                        std::to_string(options_.limits.max_seeds));
   }
-  // Labels are listed with every job: 20 000 of them made ListJobs answers too large to read.
-  constexpr int kMaxLabels = 64;
   constexpr std::size_t kMaxLabelSize = 256;
   if (request.labels_size() > kMaxLabels) {
     throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
@@ -393,7 +395,7 @@ std::string JobManager::member_dir(const gel::v1::Job& job, int member) const {
   return (fs::absolute(options_.data_dir) / job.out_dir() / name).string();
 }
 
-gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& request) {
+gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& request, bool adopt_metadata) {
   if (shutting_down_) throw unavailable();
   Engine::Prepared prepared = validated(request);
   // Run cache: the same resolved scene, seeds and program give the same bits (the engine is
@@ -414,6 +416,19 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
   prepared.parameters.emplace_back("run.program_version", version, no_number);
   if (!request.rerun()) {
     if (const auto earlier = store_->find_job_by_parameter("run.cache_key", cache_key, gel::v1::JOB_STATE_SUCCEEDED)) {
+      // Labels and name are metadata: the job takes them, so `list --label` finds it for this
+      // submitter too; its first submitter still lists it by theirs, so a changed value is refused.
+      if (adopt_metadata) {
+        const Store::MetadataMerge merge = store_->merge_labels_and_name(*earlier, request.labels(), request.name(), kMaxLabels);
+        if (!merge.conflicts.empty())
+          throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
+                         "labels: key '" + merge.conflicts.front().first + "' is '" + merge.conflicts.front().second + "' on " +
+                             *earlier + ", the job that already has these results (run cache); give another key, or rerun");
+        if (!merge.written)
+          throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "labels: " + *earlier + " (run cache) would have " +
+                                                                 std::to_string(merge.labels) + " labels, the limit is " +
+                                                                 std::to_string(kMaxLabels));
+      }
       gel::v1::SubmitJobResponse response;
       response.set_job_id(*earlier);
       *response.mutable_job() = get(*earlier);
@@ -650,35 +665,40 @@ gel::v1::GetCurveResponse JobManager::curve(const std::string& id) {
   if (members == 1) {
     out = nlohmann::json::parse(engine_->curve_json(response.members(0).curve()));
   } else {
-    // Mean and sample standard deviation per phi_k over the members that reached it.
-    std::map<int, std::vector<const gel::v1::CurveRow*>> by_k;
-    for (const auto& r : rows) by_k[r.row.k()].push_back(&r.row);
+    // The product's one ensemble statistic (gel/analysis/ensemble_statistic.hpp), named in the answer.
+    std::vector<const gel::v1::Curve*> curves;
+    for (const auto& mc : response.members()) curves.push_back(&mc.curve());
+    using Value = double (gel::v1::CurveRow::*)() const;
+    const std::vector<std::pair<const char*, Value>> values = {
+        {"phi", &gel::v1::CurveRow::phi},
+        {"P", &gel::v1::CurveRow::p},
+        {"P_top", &gel::v1::CurveRow::p_top},
+        {"P_bot", &gel::v1::CurveRow::p_bot},
+        {"contact_number", &gel::v1::CurveRow::contact_number},
+        {"stored_energy", &gel::v1::CurveRow::stored_energy},
+        {"dissipated_energy", &gel::v1::CurveRow::dissipated_energy}};
+    std::vector<std::vector<gel::analysis::RowStatistic>> statistics;
+    for (const auto& [key, get] : values)
+      statistics.push_back(gel::analysis::ensemble_statistic(curves, [get](const gel::v1::CurveRow& row) { return (row.*get)(); }));
     nlohmann::json json_rows = nlohmann::json::array();
-    for (const auto& [k, list] : by_k) {
+    for (std::size_t r = 0; r < statistics[0].size(); ++r) {
       auto* er = response.add_ensemble();
-      er->set_k(k);
-      er->set_n(static_cast<int>(list.size()));
-      nlohmann::json jr{{"k", k}, {"n", list.size()}};
-      auto stat = [&](gel::v1::Stat* s, const char* key, double (gel::v1::CurveRow::*get)() const) {
-        double sum = 0, sq = 0;
-        for (const auto* row : list) sum += (row->*get)();
-        const double mean = sum / static_cast<double>(list.size());
-        for (const auto* row : list) sq += ((row->*get)() - mean) * ((row->*get)() - mean);
-        const double sd = list.size() > 1 ? std::sqrt(sq / static_cast<double>(list.size() - 1)) : 0.0;
-        s->set_mean(mean);
-        s->set_std(sd);
-        jr[key] = mean;
-        jr[std::string(key) + "_std"] = sd;
-      };
-      stat(er->mutable_phi(), "phi", &gel::v1::CurveRow::phi);
-      stat(er->mutable_p(), "P", &gel::v1::CurveRow::p);
-      stat(er->mutable_p_top(), "P_top", &gel::v1::CurveRow::p_top);
-      stat(er->mutable_p_bot(), "P_bot", &gel::v1::CurveRow::p_bot);
-      stat(er->mutable_contact_number(), "contact_number", &gel::v1::CurveRow::contact_number);
-      stat(er->mutable_stored_energy(), "stored_energy", &gel::v1::CurveRow::stored_energy);
-      stat(er->mutable_dissipated_energy(), "dissipated_energy", &gel::v1::CurveRow::dissipated_energy);
+      er->set_k(statistics[0][r].k);
+      er->set_n(statistics[0][r].n);
+      nlohmann::json jr{{"k", statistics[0][r].k}, {"n", statistics[0][r].n}};
+      gel::v1::Stat* stats[] = {er->mutable_phi(), er->mutable_p(), er->mutable_p_top(), er->mutable_p_bot(),
+                                er->mutable_contact_number(), er->mutable_stored_energy(), er->mutable_dissipated_energy()};
+      for (std::size_t v = 0; v < values.size(); ++v) {
+        const gel::analysis::RowStatistic& st = statistics[v][r];
+        stats[v]->set_mean(st.mean);
+        stats[v]->set_std(st.std);
+        jr[values[v].first] = st.mean;
+        jr[std::string(values[v].first) + "_std"] = st.std;
+      }
       json_rows.push_back(std::move(jr));
     }
+    response.set_ensemble_rule(gel::analysis::kEnsembleRule);
+    out["ensemble_rule"] = gel::analysis::kEnsembleRule;
     out["particles"] = job.particles();
     out["seeds"] = nlohmann::json(std::vector<std::uint64_t>(job.seeds().begin(), job.seeds().end()));
     out["rows"] = std::move(json_rows);

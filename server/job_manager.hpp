@@ -105,7 +105,10 @@ class JobManager {
   void shutdown();
   bool shutting_down() const { return shutting_down_.load(); }
 
-  gel::v1::SubmitJobResponse submit(const gel::v1::SubmitJobRequest& request);
+  // A run-cache hit adds the request's labels to the earlier job and names it if it has no name
+  // (a key it has with another value is refused); a study's (adopt_metadata false) leaves the
+  // job as it is: the study records the job it got.
+  gel::v1::SubmitJobResponse submit(const gel::v1::SubmitJobRequest& request, bool adopt_metadata = true);
   // Every check submit() makes (fields, limits, the engine's validation of the scene), without
   // storing anything: throws the ApiError submit() would.
   void validate(const gel::v1::SubmitJobRequest& request);

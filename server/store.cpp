@@ -1,9 +1,11 @@
 #include "store.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <tuple>
 
 #include <sqlite3.h>
@@ -389,6 +391,17 @@ int Store::schema_version() {
   return q.step() ? static_cast<int>(q.i64(0)) : 0;
 }
 
+namespace {
+// The one writer of job labels: at submission, and a run-cache hit's new ones.
+void write_labels(sqlite3* db, const std::string& job_id, const google::protobuf::Map<std::string, std::string>& labels) {
+  Stmt lab(db, "INSERT INTO job_labels(job_id, key, value) VALUES (?, ?, ?)");
+  for (const auto& [k, v] : labels) {
+    lab.bind(1, job_id).bind(2, k).bind(3, v).run();
+    lab.reset();
+  }
+}
+}  // namespace
+
 std::string Store::insert_job(gel::v1::Job& job, const std::string& scene_json,
                               const std::vector<std::tuple<std::string, std::string, double>>& parameters) {
   std::lock_guard lock(mutex_);
@@ -419,13 +432,7 @@ std::string Store::insert_job(gel::v1::Job& job, const std::string& scene_json,
     Stmt up(db_, "UPDATE jobs SET id = ?, out_dir = ? WHERE seq = ?");
     up.bind(1, job.id()).bind(2, job.out_dir()).bind(3, seq).run();
   }
-  {
-    Stmt lab(db_, "INSERT INTO job_labels(job_id, key, value) VALUES (?, ?, ?)");
-    for (const auto& [k, v] : job.labels()) {
-      lab.bind(1, job.id()).bind(2, k).bind(3, v).run();
-      lab.reset();
-    }
-  }
+  write_labels(db_, job.id(), job.labels());
   {
     Stmt par(db_, "INSERT OR REPLACE INTO parameters(job_id, name, value_text, value_num) VALUES (?, ?, ?, ?)");
     for (const auto& [name, text, num] : parameters) {
@@ -626,6 +633,37 @@ std::optional<gel::v1::Job> Store::get_job(const std::string& id) {
   auto job = read_job_locked(id, found);
   if (!found) return std::nullopt;
   return job;
+}
+
+Store::MetadataMerge Store::merge_labels_and_name(const std::string& id,
+                                                 const google::protobuf::Map<std::string, std::string>& labels,
+                                                 const std::string& name, int max_labels) {
+  std::lock_guard lock(mutex_);
+  Transaction tx(db_);
+  std::map<std::string, std::string> stored;
+  {
+    Stmt q(db_, "SELECT key, value FROM job_labels WHERE job_id = ?");
+    q.bind(1, id);
+    while (q.step()) stored[q.text(0)] = q.text(1);
+  }
+  MetadataMerge out;
+  google::protobuf::Map<std::string, std::string> added;
+  for (const auto& [key, value] : labels) {
+    const auto it = stored.find(key);
+    if (it == stored.end()) added[key] = value;
+    else if (it->second != value) out.conflicts.emplace_back(key, it->second);
+  }
+  std::sort(out.conflicts.begin(), out.conflicts.end());
+  out.labels = static_cast<int>(stored.size() + added.size());
+  if (!out.conflicts.empty() || out.labels > max_labels) return out;  // rolled back: nothing written
+  write_labels(db_, id, added);
+  if (!name.empty()) {
+    Stmt up(db_, "UPDATE jobs SET name = ? WHERE id = ? AND name = ''");
+    up.bind(1, name).bind(2, id).run();
+  }
+  tx.commit();
+  out.written = true;
+  return out;
 }
 
 std::optional<std::string> Store::find_job_by_parameter(const std::string& name, const std::string& value,

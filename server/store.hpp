@@ -118,6 +118,18 @@ class Store {
   std::int64_t add_log(const std::string& job_id, const std::string& level, const std::string& message,
                        std::int64_t now_ms);
 
+  // A run-cache hit's metadata, put on the job `id` that answered it, in one transaction: the
+  // request's `labels` are added to the job's, and `name` becomes its name if it has none.
+  // `conflicts`: the keys the job already has with another value (sorted), with the job's value.
+  // Written only if there are none and the job then has at most max_labels labels.
+  struct MetadataMerge {
+    std::vector<std::pair<std::string, std::string>> conflicts;
+    int labels = 0;  // the job's labels after the merge
+    bool written = false;
+  };
+  MetadataMerge merge_labels_and_name(const std::string& id, const google::protobuf::Map<std::string, std::string>& labels,
+                                      const std::string& name, int max_labels);
+
   std::optional<gel::v1::Job> get_job(const std::string& id);
   // The newest job in `state` with the parameter name = value (the run cache's lookup).
   std::optional<std::string> find_job_by_parameter(const std::string& name, const std::string& value,

@@ -113,7 +113,7 @@ gel::v1::SubmitStudyResponse StudyManager::submit(const gel::v1::SubmitStudyRequ
   std::vector<std::string> queued;  // this study's own new jobs, cancelled if a later one is refused
   try {
     for (int e = 0; e < full.ensembles_size(); ++e) {
-      const gel::v1::SubmitJobResponse job = jobs_.submit(job_request(full, full.ensembles(e), id));
+      const gel::v1::SubmitJobResponse job = jobs_.submit(job_request(full, full.ensembles(e), id), false);
       jobs_.store().add_study_job(id, e, full.ensembles(e).name(), job.job_id(), job.cached());
       if (!job.cached()) queued.push_back(job.job_id());
     }

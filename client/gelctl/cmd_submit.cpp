@@ -102,9 +102,11 @@ int run_submit(gelctl::Client& client, const SubmitArgs& args) {
   auto context = client.context();
   gelctl::throw_if_failed(client.stub().SubmitJob(context.get(), request, &response));
   std::cout << response.job_id() << std::endl;
+  // The id stays the first line (scripts read it); the hit is said on stderr. geld has put this
+  // submission's labels (and its name, if the job had none) on that job.
   if (response.cached())
-    std::cerr << "gelctl: " << response.job_id() << " already ran this scene with these seeds and this program "
-              << "(run cache); --rerun runs it again\n";
+    std::cerr << "gelctl: cache hit of " << response.job_id()
+              << ": it already ran this scene with these seeds and this program; --rerun runs it again\n";
   if (args.json_output && !args.watch) std::cout << gelctl::job_json(response.job()).dump(2) << std::endl;
   if (args.watch) return gelctl::watch_job(client, response.job_id(), args.json_output);
   return gelctl::kExitSuccess;

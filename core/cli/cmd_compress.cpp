@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -28,8 +29,10 @@
 
 #include "command.hpp"
 #include "duration_text.hpp"
+#include "gel/analysis/ensemble_statistic.hpp"
 #include "gel/compression.hpp"
 #include "gel/resources.hpp"
+#include "gel/seed.hpp"
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
@@ -212,11 +215,15 @@ std::vector<std::uint64_t> parse_seeds(const std::string& text) {
         last = std::stoull(item.substr(dash + 1), &used);
         if (used != item.size() - dash - 1) throw std::invalid_argument("trailing characters");
       }
+      gel::require_seed("--seeds", first);
+      gel::require_seed("--seeds", last);
       if (last < first) throw gel::InvalidArgument("--seeds", "range '" + item + "' runs backwards");
       if (last - first >= 10000 || seeds.size() + (last - first) >= 10000)
         throw gel::InvalidArgument("--seeds", "more than 10000 seeds");
       for (std::uint64_t seed = first; seed <= last; ++seed)
         if (std::find(seeds.begin(), seeds.end(), seed) == seeds.end()) seeds.push_back(seed);
+    } catch (const gel::InvalidArgument&) {
+      throw;  // a logic_error too, and already says what is wrong
     } catch (const std::logic_error&) {
       throw gel::InvalidArgument("--seeds", "'" + item + "' is not a seed or a range A-B (e.g. --seeds 1-10 or 1,4,7-9)");
     }
@@ -236,29 +243,21 @@ struct MemberOutcome {
   std::string error;
 };
 
-// Mean, standard deviation and equilibrated count of P per target over the members that reached
-// it (the full analysis of an ensemble is `gelsim analyze-run OUT/seed_*`).
+// Mean, standard deviation and equilibrated count of P per target, by the product's one ensemble
+// statistic (gel/analysis/ensemble_statistic.hpp: over the members that reached the row; the full
+// analysis of an ensemble is `gelsim analyze-run OUT/seed_*`).
 nlohmann::json ensemble_summary(const std::vector<MemberOutcome>& members) {
+  std::vector<const gel::v1::Curve*> curves;
+  for (const auto& m : members) curves.push_back(&m.result.curve);
+  const auto phi = gel::analysis::ensemble_statistic(curves, [](const gel::v1::CurveRow& row) { return row.phi(); });
+  const auto p = gel::analysis::ensemble_statistic(curves, [](const gel::v1::CurveRow& row) { return row.p(); });
+  std::map<int, int> equilibrated;  // members whose row k is at equilibrium
+  for (const auto* curve : curves)
+    for (const auto& row : curve->rows()) equilibrated[row.k()] += row.equilibrated() ? 1 : 0;
   nlohmann::json rows = nlohmann::json::array();
-  for (int k = 0;; ++k) {
-    std::vector<const gel::v1::CurveRow*> at_k;
-    for (const auto& m : members)
-      if (k < m.result.curve.rows_size()) at_k.push_back(&m.result.curve.rows(k));
-    if (at_k.empty()) break;
-    double phi = 0, mean = 0, sq = 0;
-    int equilibrated = 0;
-    for (const auto* row : at_k) {
-      phi += row->phi();
-      mean += row->p();
-      equilibrated += row->equilibrated() ? 1 : 0;
-    }
-    const double n = static_cast<double>(at_k.size());
-    phi /= n;
-    mean /= n;
-    for (const auto* row : at_k) sq += (row->p() - mean) * (row->p() - mean);
-    rows.push_back({{"k", k}, {"phi", phi}, {"P_mean", mean}, {"P_std", at_k.size() > 1 ? std::sqrt(sq / (n - 1)) : 0.0},
-                    {"members", at_k.size()}, {"equilibrated", equilibrated}});
-  }
+  for (std::size_t r = 0; r < p.size(); ++r)
+    rows.push_back({{"k", p[r].k}, {"phi", phi[r].mean}, {"P_mean", p[r].mean}, {"P_std", p[r].std}, {"members", p[r].n},
+                    {"equilibrated", equilibrated[p[r].k]}});
   return rows;
 }
 
@@ -370,13 +369,17 @@ int run_ensemble(const CompressArgs& args) {
     nlohmann::json members = nlohmann::json::array();
     for (const auto& m : outcomes)
       members.push_back({{"seed", m.seed}, {"error", m.error}, {"curve", gel::curve_to_json(m.result.curve)}});
-    std::cout << nlohmann::json{{"seeds", seeds}, {"summary", summary}, {"members", members}}.dump() << "\n";
+    std::cout << nlohmann::json{{"seeds", seeds}, {"summary", summary}, {"ensemble_rule", gel::analysis::kEnsembleRule},
+                                {"members", members}}
+                     .dump()
+              << "\n";
   } else {
     std::printf("%3s %9s %12s %12s %8s %4s\n", "k", "phi", "P_mean[P0]", "P_std", "members", "eq");
     for (const auto& row : summary)
       std::printf("%3d %9.5f %12.5e %12.5e %8d %4d\n", row["k"].get<int>(), row["phi"].get<double>(),
                   row["P_mean"].get<double>(), row["P_std"].get<double>(), row["members"].get<int>(),
                   row["equilibrated"].get<int>());
+    std::printf("P_mean, P_std: %s\n", gel::analysis::kEnsembleRule);
     std::printf("members in %s/seed_<seed>; full analysis: gelsim analyze-run %s/seed_*\n", out.c_str(), out.c_str());
   }
   return exit_code;
@@ -484,12 +487,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   // --gel: --config means a daemon configuration file in geld; the old name still works here.
   sub.add_option("--gel,--config", args->config_file, "start from this gel (a configuration file, .json or .pb) instead of generating one");
   sub.add_option("--bond", args->bond, "bond preset: bond1, bond2");
-  sub.add_option("--seed", args->seed, "generator seed (0 .. 2^64-1; a negative number is refused, not wrapped)")
-      ->check(CLI::Validator(
-          [](std::string& value) {
-            return value.find('-') == std::string::npos ? std::string() : "must be 0 or more, got " + value;
-          },
-          "UINT"));
+  sub.add_option("--seed", args->seed, "generator seed, 1 to 2^63-1 (a negative number is refused, not wrapped)")
+      ->check(CLI::Validator([](std::string& value) { return gel::seed_problem(value); }, "SEED"));
   sub.add_option("--seeds", args->seeds, "an ensemble: seeds 1-10 or 1,4,7-9, each member in OUT/seed_<seed>");
   sub.add_option("--threads", args->threads,
                  "engine threads per run (results are bit-identical for any number; default: the scene's integration.threads, else 1)")

@@ -30,6 +30,7 @@
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
+#include "gel/seed.hpp"
 #include "gel/study.hpp"
 
 namespace {
@@ -98,12 +99,14 @@ std::vector<gel::StudyEnsembleSpec> read_study_file(const StudyArgs& args) {
       if (other.name == spec.name) throw gel::InvalidArgument(field + ".name", "'" + spec.name + "' appears twice");
     if (!entry.contains("scene") || !entry.at("scene").is_object()) throw gel::InvalidArgument(field + ".scene", "missing");
     spec.scene = gel::scene_from_json(entry.at("scene").dump());
-    if (entry.contains("seeds")) spec.seeds = entry.at("seeds").get<std::vector<std::uint64_t>>();
+    if (entry.contains("seeds")) {
+      if (!entry.at("seeds").is_array()) throw gel::InvalidArgument(field + ".seeds", "must be a list of seeds");
+      // As JSON text, so that -1 is refused rather than wrapped to 2^64-1.
+      for (const nlohmann::json& seed : entry.at("seeds")) spec.seeds.push_back(gel::parse_seed(field + ".seeds", seed.dump()));
+    }
     if (spec.seeds.empty())
       for (int s = 1; s <= args.seeds; ++s) spec.seeds.push_back(static_cast<std::uint64_t>(s));
     if (spec.seeds.empty()) throw gel::InvalidArgument(field + ".seeds", "none given (list them, or give --seeds N)");
-    for (const std::uint64_t seed : spec.seeds)
-      if (seed == 0) throw gel::InvalidArgument(field + ".seeds", "0 is not a seed; seeds start at 1");
     ensembles.push_back(std::move(spec));
   }
   return ensembles;

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "gel/errors.hpp"
+#include "gel/seed.hpp"
 #include "gel/units.hpp"
 #include "generator_internal.hpp"
 
@@ -425,6 +426,7 @@ gel::v1::Generator resolve_generator(const gel::v1::Generator& g) {
   r.set_contact_tolerance(g.contact_tolerance() != 0 ? g.contact_tolerance() : kDefaultContactTolerance);
   r.set_max_attempts(g.max_attempts() != 0 ? g.max_attempts() : kDefaultMaxAttempts);
 
+  if (r.seed() != 0) require_seed("generator.seed", r.seed());  // 0: the scene's default
   require_given_positive("generator.lx", r.lx());
   require_given_positive("generator.ly", r.ly());
   if (r.n_floc() == 0) throw InvalidArgument("generator.n_floc", "must be given (no preset sets it)");

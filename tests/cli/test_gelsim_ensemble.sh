@@ -35,6 +35,8 @@ assert d["seeds"] == [3, 4], d["seeds"]
 last = d["summary"][-1]
 ps = [m["curve"]["rows"][-1]["P"] for m in d["members"]]
 assert last["members"] == 2 and abs(last["P_mean"] - sum(ps) / 2) <= 1e-15 * abs(last["P_mean"]), (last, ps)
+# The summary names its rule: geld's GetCurve and the analyses say the same words.
+assert d["ensemble_rule"].startswith("mean and sample standard deviation (n - 1; 0 for n = 1) over the members that reached row k"), d
 PY
 
 # 2. Stopped by SIGTERM once every member has a row, resumed: the same rows as uninterrupted.

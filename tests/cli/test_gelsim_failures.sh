@@ -81,14 +81,20 @@ grep -q "dt_fraction" "$WORK/bad.out" || fail "the error does not name the field
 [ ! -e "$WORK/bad/curve.json" ] || fail "a refused scene wrote a curve"
 # 5. Integers are validated, not wrapped or silently defaulted; a progress file inside a run
 #    directory that does not exist yet (the README's example) works.
-for bad in "--seed -1" "--steps 0"; do
+#    Seeds: one rule (gel/seed.hpp, geld's too), in the same words, for every command that takes one.
+for bad in "compress --seed -1" "compress --steps 0" "compress --seed 0" "compress --seeds 0-2" "generate --seed -1" \
+           "generate --seed 0" "generate --seed 9223372036854775808"; do
   set +e
   # shellcheck disable=SC2086
-  "$GELSIM" compress --preset quick $bad --out "$WORK/int" > "$WORK/int.out" 2>&1
+  "$GELSIM" $bad --preset quick --out "$WORK/int" > "$WORK/int.out" 2>&1
   code=$?
   set -e
   [ "$code" -eq 2 ] || fail "'$bad' exits 2, got $code: $(cat "$WORK/int.out")"
-  grep -q -- "${bad%% *}" "$WORK/int.out" || fail "'$bad' refused without naming the flag: $(cat "$WORK/int.out")"
+  flag=${bad#* }
+  grep -q -- "${flag%% *}" "$WORK/int.out" || fail "'$bad' refused without naming the flag: $(cat "$WORK/int.out")"
+  [[ $bad != *seed* ]] || grep -qF "is not a seed; seeds are whole numbers from 1 to 9223372036854775807 (2^63-1)" \
+    "$WORK/int.out" || fail "'$bad' refused without the seed rule: $(cat "$WORK/int.out")"
+  [ ! -e "$WORK/int" ] || fail "'$bad' wrote $WORK/int"
 done
 "$GELSIM" compress --preset quick --fidelity fast --steps 2 --phi-max 0.2 --no-snapshots --out "$WORK/runs/b1" \
   --progress-file "$WORK/runs/b1/progress.jsonl" > /dev/null 2>&1 || fail "a progress file in the new run directory"

@@ -109,6 +109,15 @@ set +e; ctl query --where 'generator.lx>=abc' > /dev/null 2> "$work/where.err"; 
 ctl watch "$job" >/dev/null || fail "watch of a succeeded job exited non-zero"
 echo "ok: submit --watch, status --json, curve --json/--csv/--png, list, logs, query ($job)"
 
+# ---- run cache: the id first, the hit said, the new labels on the job ----------------------
+ctl submit "${TINY[@]}" --seed 1 --label study=B --name mine >"$work/hit.txt" 2>"$work/hit.err" \
+  || fail "submit of a scene that already ran: $(cat "$work/hit.err")"
+[ "$(head -n 1 "$work/hit.txt")" = "$job" ] || fail "a cache hit's first line is not $job: $(cat "$work/hit.txt")"
+listed=$(ctl list --label study=B) || fail "list --label study=B"
+grep -qE "^$job +succeeded +e2e " <<<"$listed" || fail "list --label study=B does not show the hit's job $job: $listed"
+grep -qF "cache hit of $job" "$work/hit.err" || fail "a cache hit does not say so: $(cat "$work/hit.err")"
+echo "ok: a cache hit of $job prints its id, says so, and its labels are the job's"
+
 # ---- bad input: exit codes and messages -----------------------------------------------------
 expect() {  # expect CODE PATTERN -- command...
   local code=$1 pattern=$2 status=0
@@ -127,6 +136,7 @@ expect 1 "RESOURCE_EXHAUSTED: scene.generator" -- ctl submit --preset quick --se
 expect 1 "NOT_FOUND" -- ctl status job-424242
 expect 1 "FAILED_PRECONDITION" -- ctl cancel "$job"
 expect 2 "seeds" -- ctl submit --preset quick --seeds 3-1
+expect 2 "INVALID_ARGUMENT: labels: key 'suite' is 'e2e' on $job" -- ctl submit "${TINY[@]}" --seed 1 --label suite=other
 expect 2 "submit" -- ctl submit
 ctl status "$job" >/dev/null || fail "geld stopped serving after bad input"
 echo "ok: bad input gets exit 2/1 with the status code and the field"

@@ -288,6 +288,20 @@ for malformed in ("generator.seed", "generator.lx>=thirty", "generator.lx<=inf",
 print(f"ok: query_curves {query_a} {query_b}: labels, --where filters, bond preset, state, limit, gelctl's ids, "
       "one DataFrame with job_id; INVALID_ARGUMENT from geld, ValueError for a malformed filter")
 
+# A run-cache hit says so (`cached`) and puts its labels on the job it answers with.
+again = client.submit("quick", seeds=[3], name="query-a-again", labels={"asked": "again"}, fidelity="fast",
+                      overrides=small_overrides)
+assert [job["id"] for job in client.jobs(label="asked=again")] == [query_a], client.jobs(label="asked=again")
+assert again == query_a and again.cached is True, (again, getattr(again, "cached", None))
+assert query_a.cached is False and query_a == str(query_a), (query_a, query_a.cached)
+assert client.job(query_a)["name"] == "query-a", client.job(query_a)  # it had a name: kept
+try:
+    client.submit("quick", seeds=[3], labels={"which": "b"}, fidelity="fast", overrides=small_overrides)
+    raise AssertionError("a cache hit changed the value of a label the job has")
+except gel.InvalidRequestError as error:
+    assert error.code == "INVALID_ARGUMENT" and "key 'which' is 'a' on " + query_a in error.details, error.details
+print(f"ok: a cache hit of {query_a}: cached, its labels added, a conflicting value refused")
+
 configuration = gel.read_configuration(os.path.join(work, "gel.json"))
 with open(os.path.join(work, "gel.json"), encoding="utf-8") as config_json:
     as_written = json.load(config_json)

@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <set>
@@ -28,6 +29,7 @@
 #include <spdlog/spdlog.h>
 
 #include "executor.hpp"
+#include "gel/analysis/ensemble_statistic.hpp"
 #include "gel/compression.hpp"
 #include "gel/errors.hpp"
 #include "gel/resources.hpp"
@@ -1104,7 +1106,12 @@ TEST_F(Service, SeedZeroUnknownStatesAndHugeLogPagesAreRefusedOrCapped) {
   gel::v1::SubmitJobResponse submitted;
   auto status = stub_->SubmitJob(ctx().get(), zero, &submitted);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_EQ(status.error_message(), "seeds[1]: 0 is not a seed; seeds start at 1");
+  EXPECT_EQ(status.error_message(), "seeds[1]: 0 is not a seed; seeds are whole numbers from 1 to 9223372036854775807 (2^63-1)");
+  // Nor is a number past 2^63-1 (what -1 becomes when a client wraps it).
+  zero.set_seeds(1, std::numeric_limits<std::uint64_t>::max());
+  status = stub_->SubmitJob(ctx().get(), zero, &submitted);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(), "seeds[1]: 18446744073709551615 is not a seed; seeds are whole numbers from 1 to 9223372036854775807 (2^63-1)");
   // A state number that names no state matched nothing in silence.
   gel::v1::ListJobsRequest list;
   list.set_state(static_cast<gel::v1::JobState>(9));
@@ -1247,6 +1254,9 @@ TEST_F(Service, EnsembleCurveHasMembersAndMeanStdPerPhiK) {
   EXPECT_NEAR(json["rows"][2]["P_std"].get<double>(), std::sqrt(28.0), 1e-12);
   EXPECT_EQ(json["members"].size(), 3u);
   EXPECT_EQ(get(id).rows(), 9);
+  // The answer names its rule, the one gelsim's ensemble summary and the analyses use.
+  EXPECT_EQ(c.ensemble_rule(), gel::analysis::kEnsembleRule);
+  EXPECT_EQ(json["ensemble_rule"], gel::analysis::kEnsembleRule);
 }
 
 TEST_F(Service, RealEnsembleRunsEachSeed) {
@@ -1960,6 +1970,57 @@ TEST_F(Service, AnIdenticalSubmissionReturnsTheJobThatAlreadySucceeded) {
   EXPECT_EQ(as_list.job_id(), single.job_id());
   // The order of the members is part of the job (member 0 is seed 4 here): a new job.
   EXPECT_FALSE(submit_plain(tiny_scene_json(), {4, 3}, false).cached());
+}
+
+// A cache hit's labels and name are metadata: the earlier job takes them (ListJobs finds it by
+// the new label and name), keeps a name it has, and a key it has with another value is refused.
+TEST_F(Service, ACacheHitPutsItsLabelsAndNameOnTheJobItReturns) {
+  Script& script = make_script();
+  script.rows = 2;
+  start({}, 1, scripted(script));
+  auto submit_cached = [&](const std::string& name, std::map<std::string, std::string> labels, grpc::Status* status) {
+    gel::v1::SubmitJobRequest request;
+    request.set_scene_json(tiny_scene_json());
+    request.add_seeds(3);
+    request.set_name(name);
+    for (const auto& [k, v] : labels) (*request.mutable_labels())[k] = v;
+    gel::v1::SubmitJobResponse response;
+    *status = stub_->SubmitJob(ctx().get(), request, &response);
+    return response;
+  };
+  auto listed = [&](const std::string& label, const std::string& name) {
+    gel::v1::ListJobsRequest request;
+    request.set_label(label);
+    request.set_name(name);
+    gel::v1::ListJobsResponse response;
+    EXPECT_TRUE(stub_->ListJobs(ctx().get(), request, &response).ok());
+    std::vector<std::string> ids;
+    for (const auto& job : response.jobs()) ids.push_back(job.id());
+    return ids;
+  };
+  grpc::Status status;
+  const auto first = submit_cached("", {{"study", "A"}}, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  watch(first.job_id());
+  const auto hit = submit_cached("mine", {{"owner", "B"}, {"study", "A"}}, &status);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_TRUE(hit.cached());
+  ASSERT_EQ(hit.job_id(), first.job_id());
+  EXPECT_EQ(hit.job().name(), "mine");
+  EXPECT_EQ(hit.job().labels().size(), 2u);
+  const std::vector<std::string> just_first{first.job_id()};
+  EXPECT_EQ(listed("owner=B", ""), just_first);
+  EXPECT_EQ(listed("study=A", ""), just_first);
+  EXPECT_EQ(listed("", "mine"), just_first);
+  EXPECT_EQ(get(first.job_id()).labels().at("owner"), "B");
+  // A name it has is kept; a key it has with another value is refused and nothing is written.
+  submit_cached("other", {{"study", "B"}, {"extra", "x"}}, &status);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(), "labels: key 'study' is 'A' on " + first.job_id() +
+                                        ", the job that already has these results (run cache); give another key, or rerun");
+  EXPECT_TRUE(listed("extra", "").empty());
+  EXPECT_EQ(submit_cached("other", {}, &status).job().name(), "mine");
+  EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 1);
 }
 
 TEST_F(Service, StoreWriteFailureIsInternalAndReadsGoOn) {

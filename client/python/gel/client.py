@@ -166,6 +166,19 @@ def _study_to_dict(study):
     return out
 
 
+class SubmittedJob(str):
+    """What Client.submit returns: the job id (a str, "job-000001"), with `cached`: True when
+    geld answered from its run cache with an earlier job that already has these results (nothing
+    was queued; the submission's labels, and its name if the job had none, were put on that job)."""
+
+    cached = False
+
+    def __new__(cls, job_id, cached=False):
+        submitted = super().__new__(cls, job_id)
+        submitted.cached = bool(cached)
+        return submitted
+
+
 class Client:
     """geld's API as Python calls. Made by connect(); usable as a context manager (closes the channel).
 
@@ -205,7 +218,8 @@ class Client:
             request.page_token = response.next_page_token
 
     def submit(self, scene, *, seeds=None, name="", labels=None, fidelity=None, overrides=None, rerun=False):
-        """Submit a compression job; returns its id ("job-000001").
+        """Submit a compression job; returns its id ("job-000001"), a str with `cached` (see
+        SubmittedJob): True when the run cache answered with an earlier job.
 
         scene: a scene preset name ("quick", "paper-bond1", "paper-bond2", ...), a dict in the
           JSON form of gel.v1.Scene (as `gelctl submit --scene` files: {"preset": "quick",
@@ -217,7 +231,8 @@ class Client:
         overrides: {"dotted.field": value} applied to the scene, as gelctl's --set
           ({"compression.steps": 3, "generator.lx": 30}).
         rerun: run even when a job with the same resolved scene, seeds and program version
-          already succeeded; otherwise geld returns that job's id (the run cache).
+          already succeeded; otherwise geld returns that job's id (the run cache, `cached`),
+          with these labels added to it (a key it has with another value: InvalidRequestError).
         """
         request = service_pb2.SubmitJobRequest(name=name, labels=labels or {}, rerun=rerun)
         if seeds is not None:
@@ -236,7 +251,8 @@ class Client:
                 _set_dotted(scene_dict, dotted_name, value)
             # As JSON text, so that geld resolves presets and names a bad field ("scene_json: ...").
             request.scene_json = json.dumps(scene_dict, default=_json_number)
-        return self._call(self._stub.SubmitJob, request).job_id
+        response = self._call(self._stub.SubmitJob, request)
+        return SubmittedJob(response.job_id, response.cached)
 
     def job(self, job_id):
         """One job as a dict (see gel.messages.job_to_dict): id, name, state, seeds, particles, rows, ..."""
