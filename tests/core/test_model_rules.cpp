@@ -53,29 +53,24 @@ System one_wall_loaded(WallSide side) {
   return System(config, bond1_params(kSprings | kWalls | kPeriodicX));
 }
 
-TEST(ModelRules, ALoadOnTheBottomWallOnlyGivesHalfItsStressAsP) {
-  const System system = one_wall_loaded(kBottomWall);
+// The pressed pair pushes the loaded wall's particle into its wall with F_N (n points from it to
+// the free particle, away from the wall): that wall's stress is -F_N / (2a L_x), the other's 0.
+void expect_p_is_half_the_loaded_walls_stress(WallSide side) {
+  const System system = one_wall_loaded(side);
   const WallStress stress = system.wall_stress();
-  // The bond pushes the wall particle down (n = +e_y from it to the free one): F_wall,bot = F_N.
-  const double delta = system.y()[1] - system.y()[0] - kDiameter;
-  const double expected_p_bot = -model_normal_force(delta) / (kThickness * 20.0);
-  ASSERT_GT(expected_p_bot, 0.0);
-  EXPECT_NEAR(stress.p_bottom, expected_p_bot, 1e-12 * expected_p_bot);
-  EXPECT_EQ(stress.p_top, 0.0);
-  EXPECT_EQ(stress.p, 0.5 * stress.p_bottom);
+  const double delta = std::abs(system.y()[1] - system.y()[0]) - kDiameter;
+  const double expected = -model_normal_force(delta) / (kThickness * 20.0);
+  ASSERT_GT(expected, 0.0);
+  const double loaded = side == kBottomWall ? stress.p_bottom : stress.p_top;
+  const double other = side == kBottomWall ? stress.p_top : stress.p_bottom;
+  EXPECT_NEAR(loaded, expected, 1e-12 * expected);
+  EXPECT_EQ(other, 0.0);
+  EXPECT_EQ(stress.p, 0.5 * loaded);
 }
 
-TEST(ModelRules, ALoadOnTheTopWallOnlyGivesHalfItsStressAsP) {
-  const System system = one_wall_loaded(kTopWall);
-  const WallStress stress = system.wall_stress();
-  // n = -e_y from the top-wall particle to the free one: F_wall,top = -F_N.
-  const double delta = system.y()[0] - system.y()[1] - kDiameter;
-  const double expected_p_top = -model_normal_force(delta) / (kThickness * 20.0);
-  ASSERT_GT(expected_p_top, 0.0);
-  EXPECT_NEAR(stress.p_top, expected_p_top, 1e-12 * expected_p_top);
-  EXPECT_EQ(stress.p_bottom, 0.0);
-  EXPECT_EQ(stress.p, 0.5 * stress.p_top);
-}
+TEST(ModelRules, ALoadOnTheBottomWallOnlyGivesHalfItsStressAsP) { expect_p_is_half_the_loaded_walls_stress(kBottomWall); }
+
+TEST(ModelRules, ALoadOnTheTopWallOnlyGivesHalfItsStressAsP) { expect_p_is_half_the_loaded_walls_stress(kTopWall); }
 
 // ---------------------------------------------------------------------------------------
 // Bond creation happens only with the 'creation' effect, in the dynamics and in FIRE.
