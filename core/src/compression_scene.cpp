@@ -269,6 +269,10 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   if (c->max_wait_time() == 0.0)
     c->set_max_wait_time(kDefaultMaxWaitExams * static_cast<double>(c->m_exam()) * params.dt);
   require_positive("compression.max_wait_time", c->max_wait_time());
+  // A target waits until equilibrium or this long: at most 1000 equilibrium tests (the default
+  // waits 100), so that a row that never settles cannot hold a worker for ever.
+  require_within("compression.max_wait_time", c->max_wait_time(), 0.0,
+                 1000.0 * static_cast<double>(c->m_exam()) * params.dt, "in t0: at most 1000 waits of m_exam steps of dt");
   if (c->stress_floor() == 0.0) c->set_stress_floor(kDefaultStressFloor);
   require_positive("compression.stress_floor", c->stress_floor());
   if (!c->has_approach_shortcut()) c->set_approach_shortcut(fidelity.approach_shortcut);

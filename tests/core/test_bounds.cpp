@@ -88,6 +88,10 @@ TEST(Bounds, GeneratorAndProtocolFieldsAtTheirEdges) {
   expect_edge("compression.checkpoint_seconds", checkpoint, 0.1, 0.0999);
   expect_edge("compression.checkpoint_seconds", checkpoint, 86400, 86401);
   expect_refused([&](gel::v1::Scene& s) { checkpoint(s, 1e-300); }, "compression.checkpoint_seconds", "1e-300 s");
+  // At most 1000 equilibrium tests of m_exam steps per target (quick: m_exam 10^4, bond 1's dt).
+  const double exam_time = 1e4 * 0.025 * shortest_period(bond_preset("bond1"));
+  const auto wait = [](gel::v1::Scene& s, double v) { s.mutable_compression()->set_max_wait_time(v); };
+  expect_edge("compression.max_wait_time", wait, 999.999 * exam_time, 1000.001 * exam_time);
   const auto iterations = [](gel::v1::Scene& s, double v) {
     s.mutable_compression()->set_relax_max_iterations(static_cast<std::int64_t>(v));
   };
