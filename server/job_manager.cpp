@@ -74,10 +74,6 @@ class WatcherSlot {
   bool taken_ = false;
 };
 
-}  // namespace
-
-namespace {
-
 void to_message(const gel::ResourceEstimate& e, int members, gel::v1::ResourceEstimate& out) {
   out.set_particles(e.particles);
   out.set_bonds(e.bonds);
@@ -181,12 +177,15 @@ void JobManager::release_data_dir() {
 
 std::string JobManager::require_id(const std::string& id) {
   if (id.empty()) throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "job_id: must not be empty");
-  // Ids are short numbers: a long one is no id, and is not echoed whole in "job ... not found".
+  require_id_size("job_id", id);
+  return id;
+}
+
+void require_id_size(const std::string& field, const std::string& id) {
   constexpr std::size_t kMaxIdBytes = 64;
   if (id.size() > kMaxIdBytes)
     throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
-                   "job_id: " + std::to_string(id.size()) + " bytes, the limit is " + std::to_string(kMaxIdBytes));
-  return id;
+                   field + ": " + std::to_string(id.size()) + " bytes, the limit is " + std::to_string(kMaxIdBytes));
 }
 
 void JobManager::start() {
@@ -668,32 +667,37 @@ gel::v1::GetCurveResponse JobManager::curve(const std::string& id) {
     // The product's one ensemble statistic (gel/analysis/ensemble_statistic.hpp), named in the answer.
     std::vector<const gel::v1::Curve*> curves;
     for (const auto& mc : response.members()) curves.push_back(&mc.curve());
-    using Value = double (gel::v1::CurveRow::*)() const;
-    const std::vector<std::pair<const char*, Value>> values = {
-        {"phi", &gel::v1::CurveRow::phi},
-        {"P", &gel::v1::CurveRow::p},
-        {"P_top", &gel::v1::CurveRow::p_top},
-        {"P_bot", &gel::v1::CurveRow::p_bot},
-        {"contact_number", &gel::v1::CurveRow::contact_number},
-        {"stored_energy", &gel::v1::CurveRow::stored_energy},
-        {"dissipated_energy", &gel::v1::CurveRow::dissipated_energy}};
+    // Each observable once: its JSON key, the row's value and the EnsembleRow's Stat.
+    struct Observable {
+      const char* key;
+      double (gel::v1::CurveRow::*value)() const;
+      gel::v1::Stat* (gel::v1::EnsembleRow::*stat)();
+    };
+    const Observable observables[] = {
+        {"phi", &gel::v1::CurveRow::phi, &gel::v1::EnsembleRow::mutable_phi},
+        {"P", &gel::v1::CurveRow::p, &gel::v1::EnsembleRow::mutable_p},
+        {"P_top", &gel::v1::CurveRow::p_top, &gel::v1::EnsembleRow::mutable_p_top},
+        {"P_bot", &gel::v1::CurveRow::p_bot, &gel::v1::EnsembleRow::mutable_p_bot},
+        {"contact_number", &gel::v1::CurveRow::contact_number, &gel::v1::EnsembleRow::mutable_contact_number},
+        {"stored_energy", &gel::v1::CurveRow::stored_energy, &gel::v1::EnsembleRow::mutable_stored_energy},
+        {"dissipated_energy", &gel::v1::CurveRow::dissipated_energy, &gel::v1::EnsembleRow::mutable_dissipated_energy}};
     std::vector<std::vector<gel::analysis::RowStatistic>> statistics;
-    for (const auto& [key, get] : values)
-      statistics.push_back(gel::analysis::ensemble_statistic(curves, [get](const gel::v1::CurveRow& row) { return (row.*get)(); }));
+    for (const Observable& o : observables)
+      statistics.push_back(
+          gel::analysis::ensemble_statistic(curves, [get = o.value](const gel::v1::CurveRow& row) { return (row.*get)(); }));
     nlohmann::json json_rows = nlohmann::json::array();
     for (std::size_t r = 0; r < statistics[0].size(); ++r) {
       auto* er = response.add_ensemble();
       er->set_k(statistics[0][r].k);
       er->set_n(statistics[0][r].n);
       nlohmann::json jr{{"k", statistics[0][r].k}, {"n", statistics[0][r].n}};
-      gel::v1::Stat* stats[] = {er->mutable_phi(), er->mutable_p(), er->mutable_p_top(), er->mutable_p_bot(),
-                                er->mutable_contact_number(), er->mutable_stored_energy(), er->mutable_dissipated_energy()};
-      for (std::size_t v = 0; v < values.size(); ++v) {
+      for (std::size_t v = 0; v < std::size(observables); ++v) {
         const gel::analysis::RowStatistic& st = statistics[v][r];
-        stats[v]->set_mean(st.mean);
-        stats[v]->set_std(st.std);
-        jr[values[v].first] = st.mean;
-        jr[std::string(values[v].first) + "_std"] = st.std;
+        gel::v1::Stat* stat = (er->*observables[v].stat)();
+        stat->set_mean(st.mean);
+        stat->set_std(st.std);
+        jr[observables[v].key] = st.mean;
+        jr[std::string(observables[v].key) + "_std"] = st.std;
       }
       json_rows.push_back(std::move(jr));
     }

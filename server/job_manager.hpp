@@ -204,4 +204,8 @@ std::int64_t now_ms();
 // ApiError INVALID_ARGUMENT naming `method` for anything else that is not a positive number.
 std::int64_t parse_page_token(const std::string& token, const std::string& method);
 
+// Job and study ids are short: a longer one is refused as such (INVALID_ARGUMENT naming
+// `field`), never looked up or echoed whole in an error.
+void require_id_size(const std::string& field, const std::string& id);
+
 }  // namespace geld

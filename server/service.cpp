@@ -1,7 +1,5 @@
 #include "service.hpp"
 
-#include "gel/errors.hpp"
-
 #include <arpa/inet.h>
 
 #include <chrono>

@@ -196,7 +196,7 @@ gel::v1::Study StudyManager::with_job_states(gel::v1::Study study) {
 
 gel::v1::Study StudyManager::get(const std::string& id) {
   if (id.empty()) throw invalid("study_id: required");
-  if (id.size() > 64) throw invalid("study_id: " + std::to_string(id.size()) + " bytes, the limit is 64");
+  require_id_size("study_id", id);
   auto study = jobs_.store().get_study(id);
   if (!study) throw ApiError(grpc::StatusCode::NOT_FOUND, "study_id: no study '" + id.substr(0, 64) + "'");
   return with_job_states(std::move(*study));

@@ -10,7 +10,6 @@
 #include "command.hpp"
 #include "gel/bench_network.hpp"
 #include "gel/errors.hpp"
-#include "gel/seed.hpp"
 #include "gel/system.hpp"
 
 namespace {
@@ -122,7 +121,7 @@ gelsim::Registrar bench_command("bench", "speed of the step loop (particle-steps
   sub.add_option("--min-seconds", args->min_seconds, "time to run each measurement")->check(CLI::PositiveNumber);
   sub.add_option("--v-wall", args->v_wall, "wall speed during the benchmark [a/t0]")->check(CLI::NonNegativeNumber);
   sub.add_option("--skin", args->skin, "neighbour-list skin [a] (default: the scene default)")->check(CLI::PositiveNumber);
-  sub.add_option("--seed", args->seed, "seed of the network, 1 to 2^63-1")->check(CLI::Validator([](std::string& value) { return gel::seed_problem(value); }, "SEED"));
+  sub.add_option("--seed", args->seed, "seed of the network, 1 to 2^63-1")->check(gelsim::seed_validator());
   sub.add_flag("--json", args->json, "print one JSON object");
   sub.add_option("--threads", args->threads, "engine threads; several (1,2,4): a scaling table")
       ->delimiter(',')

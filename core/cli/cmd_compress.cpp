@@ -488,7 +488,7 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--gel,--config", args->config_file, "start from this gel (a configuration file, .json or .pb) instead of generating one");
   sub.add_option("--bond", args->bond, "bond preset: bond1, bond2");
   sub.add_option("--seed", args->seed, "generator seed, 1 to 2^63-1 (a negative number is refused, not wrapped)")
-      ->check(CLI::Validator([](std::string& value) { return gel::seed_problem(value); }, "SEED"));
+      ->check(gelsim::seed_validator());
   sub.add_option("--seeds", args->seeds, "an ensemble: seeds 1-10 or 1,4,7-9, each member in OUT/seed_<seed>");
   sub.add_option("--threads", args->threads,
                  "engine threads per run (results are bit-identical for any number; default: the scene's integration.threads, else 1)")

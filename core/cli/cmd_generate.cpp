@@ -13,7 +13,6 @@
 #include "command.hpp"
 #include "gel/configuration.hpp"
 #include "gel/generator.hpp"
-#include "gel/seed.hpp"
 
 namespace {
 
@@ -88,7 +87,7 @@ const gelsim::Registrar registrar{
       sub.add_option("--ly", o->ly, "box height [a]");
       sub.add_option("--n-floc", o->n_floc, "particles per floc (power of two)");
       sub.add_option("--n-clusters", o->n_clusters, "number of flocs");
-      sub.add_option("--seed", o->seed, "random seed, 1 to 2^63-1 (default 1)")->check(CLI::Validator([](std::string& value) { return gel::seed_problem(value); }, "SEED"));
+      sub.add_option("--seed", o->seed, "random seed, 1 to 2^63-1 (default 1)")->check(gelsim::seed_validator());
       sub.add_option("--walk-step", o->walk_step, "random-walk step [a] (default 1)");
       sub.add_option("--contact-tolerance", o->contact_tolerance, "gap below which particles are bonded [a] (default 1e-9)");
       sub.add_option("--max-attempts", o->max_attempts, "placement attempts per floc (default 10000)");

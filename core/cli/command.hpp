@@ -7,7 +7,14 @@
 
 #include <CLI/CLI.hpp>
 
+#include "gel/seed.hpp"
+
 namespace gelsim {
+
+// The --seed check of every sub-command that takes one: gel/seed.hpp's rule, in its words.
+inline CLI::Validator seed_validator() {
+  return CLI::Validator([](std::string& value) { return gel::seed_problem(value); }, "SEED");
+}
 
 struct Command {
   std::string name;
