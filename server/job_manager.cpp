@@ -670,21 +670,27 @@ gel::v1::GetCurveResponse JobManager::curve(const std::string& id) {
     // Each observable once: its JSON key, the row's value and the EnsembleRow's Stat.
     struct Observable {
       const char* key;
-      double (gel::v1::CurveRow::*value)() const;
-      gel::v1::Stat* (gel::v1::EnsembleRow::*stat)();
+      double (*value)(const gel::v1::CurveRow&);
+      gel::v1::Stat* (*stat)(gel::v1::EnsembleRow&);
     };
     const Observable observables[] = {
-        {"phi", &gel::v1::CurveRow::phi, &gel::v1::EnsembleRow::mutable_phi},
-        {"P", &gel::v1::CurveRow::p, &gel::v1::EnsembleRow::mutable_p},
-        {"P_top", &gel::v1::CurveRow::p_top, &gel::v1::EnsembleRow::mutable_p_top},
-        {"P_bot", &gel::v1::CurveRow::p_bot, &gel::v1::EnsembleRow::mutable_p_bot},
-        {"contact_number", &gel::v1::CurveRow::contact_number, &gel::v1::EnsembleRow::mutable_contact_number},
-        {"stored_energy", &gel::v1::CurveRow::stored_energy, &gel::v1::EnsembleRow::mutable_stored_energy},
-        {"dissipated_energy", &gel::v1::CurveRow::dissipated_energy, &gel::v1::EnsembleRow::mutable_dissipated_energy}};
+        {"phi", [](const gel::v1::CurveRow& r) { return r.phi(); },
+         [](gel::v1::EnsembleRow& e) { return e.mutable_phi(); }},
+        {"P", [](const gel::v1::CurveRow& r) { return r.p(); },
+         [](gel::v1::EnsembleRow& e) { return e.mutable_p(); }},
+        {"P_top", [](const gel::v1::CurveRow& r) { return r.p_top(); },
+         [](gel::v1::EnsembleRow& e) { return e.mutable_p_top(); }},
+        {"P_bot", [](const gel::v1::CurveRow& r) { return r.p_bot(); },
+         [](gel::v1::EnsembleRow& e) { return e.mutable_p_bot(); }},
+        {"contact_number", [](const gel::v1::CurveRow& r) { return r.contact_number(); },
+         [](gel::v1::EnsembleRow& e) { return e.mutable_contact_number(); }},
+        {"stored_energy", [](const gel::v1::CurveRow& r) { return r.stored_energy(); },
+         [](gel::v1::EnsembleRow& e) { return e.mutable_stored_energy(); }},
+        {"dissipated_energy", [](const gel::v1::CurveRow& r) { return r.dissipated_energy(); },
+         [](gel::v1::EnsembleRow& e) { return e.mutable_dissipated_energy(); }}};
     std::vector<std::vector<gel::analysis::RowStatistic>> statistics;
     for (const Observable& o : observables)
-      statistics.push_back(
-          gel::analysis::ensemble_statistic(curves, [get = o.value](const gel::v1::CurveRow& row) { return (row.*get)(); }));
+      statistics.push_back(gel::analysis::ensemble_statistic(curves, o.value));
     nlohmann::json json_rows = nlohmann::json::array();
     for (std::size_t r = 0; r < statistics[0].size(); ++r) {
       auto* er = response.add_ensemble();
@@ -693,7 +699,7 @@ gel::v1::GetCurveResponse JobManager::curve(const std::string& id) {
       nlohmann::json jr{{"k", statistics[0][r].k}, {"n", statistics[0][r].n}};
       for (std::size_t v = 0; v < std::size(observables); ++v) {
         const gel::analysis::RowStatistic& st = statistics[v][r];
-        gel::v1::Stat* stat = (er->*observables[v].stat)();
+        gel::v1::Stat* stat = observables[v].stat(*er);
         stat->set_mean(st.mean);
         stat->set_std(st.std);
         jr[observables[v].key] = st.mean;
