@@ -1,6 +1,8 @@
 #pragma once
 // Shared between the compression source files: the resolved protocol parameters as plain
 // numbers (read once from the resolved scene, so the step loop never touches protobuf).
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 #include "gel/compression.hpp"
@@ -30,7 +32,23 @@ struct CompressionSettings {
   double strain_step = 0;         // max d ln(phi) per affine step
   RelaxOptions relax;
   std::int64_t relax_max_iterations = 0;  // per strain step
+  double walk_dt_factor = 1;      // the walls' walk below walk_dt_stress takes this x dt
+  double walk_dt_stress = 0;      // [F0/a^2]
 };
+
+// docs/quasistatic.md "Walk step": while the walls carry less than walk_dt_stress, the walk
+// takes up to walk_dt_factor x dt, and no more than half of Verlet's limit for the stiffest
+// particle of the network as it is (omega dt <= 1, so that the contacts that stiffen within one
+// chunk of steps cannot reach the limit 2); otherwise dt. fastest_frequency() (the engine's
+// Gershgorin bound, a loop over the bonds) is only asked when the stress allows a longer step.
+template <class Frequency>
+double walk_time_step(const CompressionSettings& settings, double dt, double wall_stress, Frequency&& fastest_frequency) {
+  if (!(settings.walk_dt_factor > 1.0) || !(std::abs(wall_stress) < settings.walk_dt_stress)) return dt;
+  const double longest = settings.walk_dt_factor * dt;
+  const double omega = fastest_frequency();
+  const double stable = omega > 0.0 ? 1.0 / omega : longest;
+  return std::max(dt, std::min(longest, stable));
+}
 
 // From a scene already passed through resolve_compression_scene.
 CompressionSettings compression_settings(const gel::v1::Compression& resolved);

@@ -271,6 +271,7 @@ class CompressionRun {
         settings_(compression_settings(curve_.scene().compression())),
         options_(with_scene_outputs(options, curve_.scene())),
         targets_(compression_targets(state.phi0, settings_.w0, settings_.phi_max, settings_.steps)),
+        dt_(resolve_sim_params(curve_.scene()).dt),
         session_start_(Clock::now()),
         last_progress_(session_start_),
         last_checkpoint_(session_start_) {
@@ -362,6 +363,7 @@ class CompressionRun {
       if (gap <= 0.0) return begin_wait();
     }
     if (gap <= 0.0) return begin_wait();
+    system_.set_time_step(walk_time_step());
     const double dt = system_.params().dt;
     const double v_wall = settings_.adaptive_wall_max_factor > 1.0 ? adapt_wall_speed() : settings_.v_wall;
     const double per_step = 2.0 * v_wall * dt;
@@ -436,8 +438,14 @@ class CompressionRun {
     return exam_ruptures(system_.events(), settings_.exam_all_ruptures);
   }
 
+  // Decided from the state at each chunk, so a resumed run decides the same.
+  double walk_time_step() const {
+    return gel::walk_time_step(settings_, dt_, system_.wall_stress().p, [this] { return system_.fastest_contact_frequency(); });
+  }
+
   void begin_wait() {
     set_walls(0.0);
+    system_.set_time_step(dt_);  // every relaxation and wait at the scene's dt
     if (settings_.quasistatic) {
       // The walls are at the target: relax there instead of waiting.
       state_.relax = RelaxState{};
@@ -640,6 +648,7 @@ class CompressionRun {
   CompressionSettings settings_;
   RunOptions options_;
   std::vector<double> targets_;
+  double dt_;  // the scene's time step; the walk may take a multiple of it
   Clock::time_point session_start_, last_progress_, last_checkpoint_;
   std::unique_ptr<exporting::FrameWriter> trajectory_;
   std::int64_t next_frame_step_ = 0;

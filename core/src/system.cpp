@@ -687,6 +687,13 @@ void System::parallel(std::size_t tasks, Task&& task) {
     for (std::size_t t = 0; t < tasks; ++t) task(t);
 }
 
+void System::set_time_step(double dt) {
+  require_positive("integration.dt", dt);
+  if (dt == params_.dt) return;
+  params_.max_speed *= params_.dt / dt;
+  params_.dt = dt;
+}
+
 void System::set_threads(int threads) {
   if (threads < 1) throw InvalidArgument("threads", "must be >= 1");
   if (threads == this->threads()) return;
@@ -803,20 +810,40 @@ void System::check_stability() {
 // gives omega^2 <= max_i (1 + sqrt 2) sum_{c at i} k_c / m. The sum is taken only when the most
 // compressed contact could reach the limit with seven such contacts (the most a disk has at
 // small overlaps), so that an ordinary step pays nothing for it.
-void System::check_contact_stiffness() {
+namespace {
+constexpr double kGershgorinFactor = 2.414213562373095;  // 1 + sqrt 2
+}
+
+double System::contact_stiffness(double delta) const {
   const BondLaw& law = params_.bond;
-  auto stiffness = [&](double delta) { return law.k_normal + 3.0 * law.overlap_coefficient * std::min(delta, 0.0) * std::min(delta, 0.0); };
-  const double bound_factor = 1.0 + std::sqrt(2.0);
-  if (std::sqrt(bound_factor * 7.0 * stiffness(min_delta_) / kMass) * params_.dt <= 2.0) return;
+  const double overlap = std::min(delta, 0.0);
+  return law.k_normal + 3.0 * law.overlap_coefficient * overlap * overlap;
+}
+
+std::vector<double> System::summed_contact_stiffness() const {
   std::vector<double> summed(size(), 0.0);
   for (const Bond& bond : bonds_) {
-    const double k = stiffness(bond_gap(bond));
+    const double k = contact_stiffness(bond_gap(bond));
     summed[bond.i] += k;
     summed[bond.j] += k;
   }
+  return summed;
+}
+
+double System::fastest_contact_frequency() const {
+  const std::vector<double> summed = summed_contact_stiffness();
+  double largest = 0;
+  for (std::size_t i = 0; i < size(); ++i)
+    if (wall_side(i) == kNoWall) largest = std::max(largest, summed[i]);  // wall particles are not integrated
+  return std::sqrt(kGershgorinFactor * largest / kMass);
+}
+
+void System::check_contact_stiffness() {
+  if (std::sqrt(kGershgorinFactor * 7.0 * contact_stiffness(min_delta_) / kMass) * params_.dt <= 2.0) return;
+  const std::vector<double> summed = summed_contact_stiffness();
   for (std::size_t i = 0; i < size(); ++i) {
     if (wall_side(i) != kNoWall) continue;  // moved with its wall, not integrated
-    const double omega_dt = std::sqrt(bound_factor * summed[i] / kMass) * params_.dt;
+    const double omega_dt = std::sqrt(kGershgorinFactor * summed[i] / kMass) * params_.dt;
     if (omega_dt > 2.0)
       stability_failure("the contacts of particle " + std::to_string(i) + " (most compressed overlap " + number(-min_delta_) +
                         " a) stiffen it to " + number(summed[i]) + " F0/a: omega dt = " + number(omega_dt) +

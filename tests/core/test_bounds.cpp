@@ -139,10 +139,12 @@ TEST(Resources, TheEstimateIsBuiltFromTheDensestPacking) {
   // Centres within 2a + skin (0.3 a): 0.9069 * 3.3^2 - 1 = 8.876 per particle, halved.
   EXPECT_NEAR(static_cast<double>(e.neighbour_pairs), 0.5 * 5760 * (kDensestPacking * 3.3 * 3.3 - 1), 1.0);
   EXPECT_EQ(e.rows, 18);
-  // The walls walk from L_y to the height of phi_max: L_y (1 - phi_0 / phi_max) / (2 v_wall dt).
+  // The walls walk from L_y to the height of phi_max: L_y (1 - phi_0 / phi_max) / (2 v_wall dt'),
+  // dt' = 4 dt the longest walk step of the preset (a lower bound).
   const double phi0 = kPi * 5760 / (300.0 * 500.0);
   const SimParams params = resolve_sim_params(scene);
-  const double walk = 500.0 * (1 - phi0 / 0.74) / (2 * scene.compression().v_wall() * params.dt);
+  ASSERT_EQ(scene.compression().walk_dt_factor(), 4.0);
+  const double walk = 500.0 * (1 - phi0 / 0.74) / (2 * scene.compression().v_wall() * 4 * params.dt);
   EXPECT_NEAR(static_cast<double>(e.steps), walk, 1.0);  // quasistatic: no exams counted
   EXPECT_DOUBLE_EQ(e.particle_steps, 5760.0 * static_cast<double>(e.steps));
   EXPECT_EQ(e.memory_driver, "generator");

@@ -121,6 +121,13 @@ class System {
 
   void step();
   void run(std::int64_t steps);
+  // Changes the time step from the next step on (the compression's walk step). The speed guard
+  // follows it, so that it still bounds the distance a particle moves in one step.
+  void set_time_step(double dt);
+  // Gershgorin's bound on the fastest normal mode of the bond network as it is now [1/t0]: the
+  // largest sqrt((1 + sqrt 2) sum_c k_c / m) over free particles, k_c the stiffness of each of
+  // its contacts with the cubic overlap term. Velocity Verlet is stable while it times dt <= 2.
+  double fastest_contact_frequency() const;
 
   // Threads for the bond loop and the integrator. Results are bit-identical for any number:
   // every sum is made in the same order (bond_kernels.hpp, fixed particle blocks).
@@ -233,6 +240,8 @@ class System {
   void check_stability();
   double bond_gap(const Bond& bond) const;  // surface gap delta of a bonded pair, from positions only
   void check_contact_stiffness();
+  double contact_stiffness(double delta) const;  // k_N + 3 C delta^2 in compression, k_N apart
+  std::vector<double> summed_contact_stiffness() const;  // per particle, over its bonds
   void after_drift();
   bool handle_threshold(std::size_t b, double fn, double ft_sq, double moment, double nx, double ny);
   void create_bond(std::int32_t i, std::int32_t j, double shift_x, double shift_y);

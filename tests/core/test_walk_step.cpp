@@ -1,0 +1,170 @@
+// The walk step (docs/quasistatic.md "Walk step"): while the walls walk and carry little, the
+// dynamics may take a longer step; every relaxation and every loaded walk keeps the scene's dt.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "compression_internal.hpp"
+#include "gel/compression.hpp"
+#include "gel/errors.hpp"
+#include "gel/system.hpp"
+#include "gel/v1/checkpoint.pb.h"
+#include "test_scenes.hpp"
+
+namespace gel {
+namespace {
+
+// 96 particles (12 flocs of 8) in 24 x 48, three targets up to phi = 0.5, quasi-static.
+gel::v1::Scene tiny_walk_scene(double walk_dt_factor, double walk_dt_stress) {
+  gel::v1::Scene scene;
+  scene.mutable_bond()->set_preset("bond1");
+  gel::v1::Generator* g = scene.mutable_generator();
+  g->set_lx(24);
+  g->set_ly(48);
+  g->set_n_floc(8);
+  g->set_n_clusters(12);
+  g->set_seed(3);
+  gel::v1::Compression* c = scene.mutable_compression();
+  c->set_fidelity("quasistatic");
+  c->set_steps(3);
+  c->set_phi_max(0.5);
+  c->set_walk_dt_factor(walk_dt_factor);
+  if (walk_dt_stress > 0) c->set_walk_dt_stress(walk_dt_stress);
+  return scene;
+}
+
+void expect_invalid_walk(const gel::v1::Scene& scene, const std::string& field) {
+  try {
+    resolve_compression_scene(scene);
+    ADD_FAILURE() << "no InvalidArgument for " << field;
+  } catch (const InvalidArgument& e) {
+    EXPECT_EQ(e.field(), field) << e.what();
+  }
+}
+
+TEST(WalkStep, PaperKeepsItsStepAndTheFactorIsBoundedByTheBondPeriod) {
+  gel::v1::Scene paper;
+  paper.set_preset("paper-bond1");
+  paper.mutable_compression()->set_fidelity("paper");
+  EXPECT_EQ(resolve_compression_scene(paper).compression().walk_dt_factor(), 1.0);
+  EXPECT_EQ(resolve_compression_scene(paper).compression().walk_dt_stress(), 1e-2);
+  gel::v1::Scene preset;
+  preset.set_preset("paper-bond1");
+  EXPECT_EQ(resolve_compression_scene(preset).compression().walk_dt_factor(), 4.0);
+  // The preset's dt is 0.025 of the shortest bond period and the walk step at most 0.25 of it.
+  expect_invalid_walk(tiny_walk_scene(10.5, 0), "compression.walk_dt_factor");
+  expect_invalid_walk(tiny_walk_scene(0.5, 0), "compression.walk_dt_factor");
+  expect_invalid_walk(tiny_walk_scene(std::nan(""), 0), "compression.walk_dt_factor");
+  gel::v1::Scene negative = tiny_walk_scene(4, 0);
+  negative.mutable_compression()->set_walk_dt_stress(-1);
+  expect_invalid_walk(negative, "compression.walk_dt_stress");
+  EXPECT_EQ(resolve_compression_scene(tiny_walk_scene(10, 0)).compression().walk_dt_factor(), 10.0);
+  // A scene whose own dt is long gets the preset's factor only as far as the bound allows.
+  gel::v1::Scene long_dt = tiny_walk_scene(0, 0);
+  long_dt.mutable_integration()->set_dt_fraction(0.1);
+  EXPECT_DOUBLE_EQ(resolve_compression_scene(long_dt).compression().walk_dt_factor(), 2.5);
+  long_dt.mutable_integration()->set_dt_fraction(0.5);
+  EXPECT_EQ(resolve_compression_scene(long_dt).compression().walk_dt_factor(), 1.0);
+  // A scene resolved before the field existed keeps 0, which runs as the scene's dt.
+  gel::v1::Scene stored = resolve_compression_scene(tiny_walk_scene(1, 0));
+  stored.mutable_compression()->clear_walk_dt_factor();
+  EXPECT_EQ(resolve_compression_scene(stored).compression().walk_dt_factor(), 0.0);
+}
+
+TEST(WalkStep, SetTimeStepKeepsTheGuardsDistancePerStep) {
+  System system(pair_along_x(0.0), bond1_params(kSprings));
+  const double dt = system.params().dt, distance = system.params().max_speed * dt;
+  system.set_time_step(4 * dt);
+  EXPECT_EQ(system.params().dt, 4 * dt);
+  EXPECT_NEAR(system.params().max_speed * system.params().dt, distance, 1e-15 * distance);
+  EXPECT_THROW(system.set_time_step(0), InvalidArgument);
+}
+
+TEST(WalkStep, FastestContactFrequencyIsGershgorinsBound) {
+  // One bond at contact: each particle has one contact of stiffness k_N, so the bound is
+  // sqrt((1 + sqrt 2) k_N / m); pressed by delta the cubic term adds 3 C delta^2.
+  const SimParams params = bond1_params(kSprings);
+  const double k_n = params.bond.k_normal, c = params.bond.overlap_coefficient;
+  EXPECT_NEAR(System(pair_along_x(0.0), params).fastest_contact_frequency(), std::sqrt((1 + std::sqrt(2.0)) * k_n / kMass),
+              1e-12);
+  const double delta = -0.05;
+  EXPECT_NEAR(System(pair_along_x(delta), params).fastest_contact_frequency(),
+              std::sqrt((1 + std::sqrt(2.0)) * (k_n + 3 * c * delta * delta) / kMass), 1e-9);
+  // Stretched, only k_N.
+  EXPECT_NEAR(System(pair_along_x(0.01), params).fastest_contact_frequency(), std::sqrt((1 + std::sqrt(2.0)) * k_n / kMass),
+              1e-12);
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+TEST(WalkStep, TheWalkTakesLongerStepsForTheSameTimeAndEveryRelaxationTheScenesStep) {
+  // The same walk to the first target (the same wall distance at the same speed) in a quarter
+  // of the steps; the simulated time of the walk agrees to within the last step of each.
+  const CompressionResult plain = run_compression(tiny_walk_scene(1, 0), RunOptions{});
+  const std::string dir = (std::filesystem::temp_directory_path() / ("gel_walk_step_" + std::to_string(::getpid()))).string();
+  std::filesystem::remove_all(dir);
+  RunOptions options;
+  options.out_dir = dir;
+  options.write_snapshots = false;
+  const CompressionResult walked = run_compression(tiny_walk_scene(4, 1e3), options);
+  ASSERT_TRUE(plain.finished && walked.finished);
+  const gel::v1::CurveRow &a = plain.curve.rows(1), &b = walked.curve.rows(1);
+  const double dt = resolve_sim_params(resolve_compression_scene(tiny_walk_scene(1, 0))).dt;
+  EXPECT_NEAR(b.sim_time(), a.sim_time(), 8 * dt);
+  const double plain_walk = static_cast<double>(a.steps() - a.relax_iterations());
+  const double long_walk = static_cast<double>(b.steps() - b.relax_iterations());
+  // A quarter, up to the chunks that the stiffness cap held to a shorter step.
+  EXPECT_GE(long_walk, plain_walk / 4 - 2) << "walk steps " << long_walk << " against " << plain_walk;
+  EXPECT_LT(long_walk, 1.05 * plain_walk / 4) << "walk steps " << long_walk << " against " << plain_walk;
+  // Every row is relaxed as before, and the run ends at the scene's own step: the relaxations
+  // and the state a resumed run starts from never inherit the walk's.
+  for (int k = 1; k < walked.curve.rows_size(); ++k) EXPECT_TRUE(walked.curve.rows(k).equilibrated()) << "k " << k;
+  const std::string bytes = read_file(dir + "/checkpoint.bin");
+  ASSERT_GT(bytes.size(), 16u);
+  gel::v1::Checkpoint checkpoint;
+  ASSERT_TRUE(checkpoint.ParseFromString(bytes.substr(8, bytes.size() - 16)));
+  EXPECT_EQ(checkpoint.engine().dt(), dt);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(WalkStep, BelowTheStressOnlyAndNeverPastHalfOfVerletsLimit) {
+  CompressionSettings settings;
+  settings.walk_dt_factor = 4;
+  settings.walk_dt_stress = 1e-3;
+  const double dt = 0.01;
+  int asked = 0;
+  auto frequency = [&asked](double omega) {
+    return [&asked, omega] {
+      ++asked;
+      return omega;
+    };
+  };
+  // Unloaded, soft: the whole factor.
+  EXPECT_EQ(walk_time_step(settings, dt, 5e-4, frequency(1.0)), 4 * dt);
+  EXPECT_EQ(walk_time_step(settings, dt, -5e-4, frequency(1.0)), 4 * dt);
+  EXPECT_EQ(walk_time_step(settings, dt, 0.0, frequency(0.0)), 4 * dt);  // no bonds at all
+  // Stiff contacts: omega dt = 1 at most, and never below the scene's dt.
+  EXPECT_DOUBLE_EQ(walk_time_step(settings, dt, 5e-4, frequency(50.0)), 1.0 / 50.0);
+  EXPECT_EQ(walk_time_step(settings, dt, 5e-4, frequency(1e6)), dt);
+  EXPECT_EQ(asked, 5);
+  // Loaded (or not a number), or the factor off: dt, without the loop over the bonds.
+  asked = 0;
+  EXPECT_EQ(walk_time_step(settings, dt, 1e-3, frequency(1.0)), dt);
+  EXPECT_EQ(walk_time_step(settings, dt, -2e-3, frequency(1.0)), dt);
+  EXPECT_EQ(walk_time_step(settings, dt, std::nan(""), frequency(1.0)), dt);
+  settings.walk_dt_factor = 1;
+  EXPECT_EQ(walk_time_step(settings, dt, 0.0, frequency(1.0)), dt);
+  EXPECT_EQ(asked, 0);
+}
+
+}  // namespace
+}  // namespace gel
