@@ -18,7 +18,9 @@
 #include <string>
 #include <vector>
 
+#include "compression_checkpoint.hpp"
 #include "compression_internal.hpp"
+#include "compression_observables.hpp"
 #include "gel/compression.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
@@ -37,16 +39,6 @@ using Clock = std::chrono::steady_clock;
 // protocol time scale, large against the cost of a clock read.
 constexpr std::int64_t kChunkSteps = 128;
 
-constexpr char kCheckpointFile[] = "checkpoint.bin";
-constexpr char kPreviousCheckpointFile[] = "checkpoint.prev.bin";
-// The file is the magic, a gel.v1.Checkpoint message (proto/gel/v1/checkpoint.proto) and the
-// 64-bit FNV-1a hash of that message: a flipped bit in a stored double would otherwise parse
-// fine and resume a corrupted run. Formats 1-4 were raw little-endian struct bytes; they are
-// refused with their number, and the service then runs the member again from its seed.
-constexpr char kCheckpointMagic[8] = {'G', 'E', 'L', 'C', 'K', 'P', 'T', '5'};
-constexpr char kCheckpointMagicPrefix[7] = {'G', 'E', 'L', 'C', 'K', 'P', 'T'};
-constexpr std::uint32_t kCheckpointFormat = 5;
-
 // Quasi-static approach: at most this many contact-to-contact jumps per target before the walls
 // move, and the overlap each jump ends with so that the touching pair bonds [a].
 constexpr int kMaxShortcutJumps = 10000;
@@ -61,26 +53,6 @@ constexpr std::int64_t kRelaxChunk = 512;
 constexpr double kAdaptiveSpeedUp = 1.1;
 constexpr double kAdaptiveSlowDown = 0.5;
 
-enum Phase : std::int32_t { kMoving = 0, kWaiting = 1, kDone = 2, kRelaxing = 3 };
-
-// Everything besides the engine and the curve that the protocol needs to continue.
-struct CompressionState {
-  double phi0 = 0;                      // packing fraction at the start (row 0)
-  std::int32_t k = 1;                   // current target, 1..k'
-  std::int32_t phase = kMoving;
-  std::int64_t next_exam_step = 0;      // engine step of the next equilibrium test
-  double wait_start_time = 0;           // simulated time when the walls stopped
-  double previous_p = 0;                // P' (P at the previous test, or at the stop)
-  std::int64_t breaks_at_previous = 0;  // ruptures the third test counts, at the previous test
-  std::uint8_t spanned = 0;             // the network spans: no more approach shortcut, and
-                                        // walls-then-affine goes on in affine steps
-  double wall_seconds_before = 0;       // wall-clock seconds of earlier sessions
-  double wall_speed_factor = 1;         // adaptive wall: current v / v_wall
-  double drag_at_control = 0;           // adaptive wall: ledger at the previous control
-  double wall_work_at_control = 0;
-  RelaxState relax;                     // quasi-static: the relaxation of the current strain step
-};
-
 // The scene's own output requests (output.trajectory_every, into DIR/trajectory.gsd) where the
 // caller's options leave them open: a job of geld asks for its trajectory this way.
 RunOptions with_scene_outputs(RunOptions options, const gel::v1::Scene& scene) {
@@ -90,174 +62,6 @@ RunOptions with_scene_outputs(RunOptions options, const gel::v1::Scene& scene) {
       options.trajectory_path = default_trajectory_path(options.out_dir);
   }
   return options;
-}
-
-// --- The protocol's part of the checkpoint -------------------------------------------------
-
-void encode_state(const CompressionState& s, gel::v1::ProtocolState& m) {
-  m.set_phi0(s.phi0);
-  m.set_k(s.k);
-  m.set_phase(s.phase);
-  m.set_next_exam_step(s.next_exam_step);
-  m.set_wait_start_time(s.wait_start_time);
-  m.set_previous_p(s.previous_p);
-  m.set_ruptures_at_previous(s.breaks_at_previous);
-  m.set_spanned(s.spanned != 0);
-  m.set_wall_seconds_before(s.wall_seconds_before);
-  m.set_wall_speed_factor(s.wall_speed_factor);
-  m.set_drag_at_control(s.drag_at_control);
-  m.set_wall_work_at_control(s.wall_work_at_control);
-  gel::v1::RelaxState& relax = *m.mutable_relax();
-  relax.set_dt(s.relax.dt);
-  relax.set_dt_max(s.relax.dt_max);
-  relax.set_alpha(s.relax.alpha);
-  relax.set_n_positive(s.relax.n_positive);
-  relax.set_n_negative(s.relax.n_negative);
-  relax.set_iterations(s.relax.iterations);
-  relax.set_residual(s.relax.residual);
-  relax.set_force_scale(s.relax.force_scale);
-  relax.set_tolerance_factor(s.relax.tolerance_factor);
-  relax.set_converged(s.relax.converged != 0);
-  relax.set_stalled(s.relax.stalled != 0);
-}
-
-CompressionState decode_state(const gel::v1::ProtocolState& m) {
-  CompressionState s;
-  s.phi0 = m.phi0();
-  s.k = m.k();
-  s.phase = m.phase();
-  s.next_exam_step = m.next_exam_step();
-  s.wait_start_time = m.wait_start_time();
-  s.previous_p = m.previous_p();
-  s.breaks_at_previous = m.ruptures_at_previous();
-  s.spanned = m.spanned() ? 1 : 0;
-  s.wall_seconds_before = m.wall_seconds_before();
-  s.wall_speed_factor = m.wall_speed_factor();
-  s.drag_at_control = m.drag_at_control();
-  s.wall_work_at_control = m.wall_work_at_control();
-  const gel::v1::RelaxState& relax = m.relax();
-  s.relax.dt = relax.dt();
-  s.relax.dt_max = relax.dt_max();
-  s.relax.alpha = relax.alpha();
-  s.relax.n_positive = relax.n_positive();
-  s.relax.n_negative = relax.n_negative();
-  s.relax.iterations = relax.iterations();
-  s.relax.residual = relax.residual();
-  s.relax.force_scale = relax.force_scale();
-  s.relax.tolerance_factor = relax.tolerance_factor();
-  s.relax.converged = relax.converged() ? 1 : 0;
-  s.relax.stalled = relax.stalled() ? 1 : 0;
-  if (s.phase < kMoving || s.phase > kRelaxing || s.k < 1) throw std::runtime_error("its protocol state is invalid");
-  return s;
-}
-
-std::string checkpoint_path(const std::string& out_dir) {
-  return (std::filesystem::path(out_dir) / kCheckpointFile).string();
-}
-
-// The checkpoint before the last: a resume falls back to it when the last one cannot be read
-// (damaged on disk, or cut short), instead of starting the run again from nothing.
-std::string previous_checkpoint_path(const std::string& out_dir) {
-  return (std::filesystem::path(out_dir) / kPreviousCheckpointFile).string();
-}
-
-// --- Observables ---------------------------------------------------------------------------
-
-// Area of the unit disk below the line at height t from its centre (t clamped to [-1, 1]).
-double disk_area_below(double t) {
-  t = std::clamp(t / kRadius, -1.0, 1.0);
-  return kRadius * kRadius * (std::acos(-t) + t * std::sqrt(1.0 - t * t));
-}
-
-// Packing fraction in `slices` equal slices between the walls, bottom to top: the exact area
-// of each disk inside each slice, over the slice area.
-std::vector<double> phi_profile(const System& system, int slices) {
-  const double bottom = system.wall_bottom(), top = system.wall_top();
-  const double width = (top - bottom) / slices;
-  std::vector<double> area(static_cast<std::size_t>(slices), 0.0);
-  const auto& y = system.y();
-  for (std::size_t i = 0; i < system.size(); ++i) {
-    // Clamped as doubles before the cast: a float-to-int conversion out of range (or of a NaN)
-    // is undefined behaviour, and a particle far outside the walls must not cause it.
-    auto slice_of = [&](double yy) {
-      const double index = std::floor((yy - bottom) / width);
-      return static_cast<int>(std::clamp(std::isnan(index) ? 0.0 : index, 0.0, static_cast<double>(slices - 1)));
-    };
-    const int first = slice_of(y[i] - kRadius);
-    const int last = slice_of(y[i] + kRadius);
-    for (int s = first; s <= last; ++s) {
-      const double lower = s == 0 ? -std::numeric_limits<double>::infinity() : bottom + s * width;
-      const double upper = s == slices - 1 ? std::numeric_limits<double>::infinity() : bottom + (s + 1) * width;
-      area[s] += disk_area_below(upper - y[i]) - disk_area_below(lower - y[i]);
-    }
-  }
-  std::vector<double> phi(area.size());
-  for (std::size_t s = 0; s < area.size(); ++s) phi[s] = area[s] / (system.lx() * width);
-  return phi;
-}
-
-void require_finite_state(const char* what, double value) {
-  if (!std::isfinite(value))
-    throw StabilityError(std::string("compression: ") + what + " is not finite (" + std::to_string(value) + ")");
-}
-
-// --- Approach shortcut (MODEL.md: translate the group attached to one wall rigidly until the
-// network first spans) ------------------------------------------------------------------------
-
-// Particles connected through bonds to the top wall (the wall particles included).
-std::vector<char> top_wall_group(const System& system) {
-  const std::size_t n = system.size();
-  std::vector<std::vector<std::int32_t>> adjacency(n);
-  for (const Bond& bond : system.bonds()) {
-    adjacency[bond.i].push_back(bond.j);
-    adjacency[bond.j].push_back(bond.i);
-  }
-  std::vector<char> in_group(n, 0);
-  std::vector<std::int32_t> frontier;
-  for (std::size_t i = 0; i < n; ++i)
-    if (system.wall_side(i) == kTopWall) {
-      in_group[i] = 1;
-      frontier.push_back(static_cast<std::int32_t>(i));
-    }
-  while (!frontier.empty()) {
-    const std::int32_t i = frontier.back();
-    frontier.pop_back();
-    for (const std::int32_t j : adjacency[i])
-      if (!in_group[j]) {
-        in_group[j] = 1;
-        frontier.push_back(j);
-      }
-  }
-  return in_group;
-}
-
-bool group_touches_bottom_wall(const System& system, const std::vector<char>& group) {
-  for (std::size_t i = 0; i < system.size(); ++i)
-    if (group[i] && system.wall_side(i) == kBottomWall) return true;
-  return false;
-}
-
-bool network_spans(const System& system) { return group_touches_bottom_wall(system, top_wall_group(system)); }
-
-// How far the top group can move down before one of its particles touches a particle outside
-// it or the bottom wall.
-double distance_to_first_contact(const System& system, const std::vector<char>& group) {
-  const auto& x = system.x();
-  const auto& y = system.y();
-  const double lx = system.lx();
-  double distance = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < system.size(); ++i) {
-    if (!group[i]) continue;
-    distance = std::min(distance, y[i] - kRadius - system.wall_bottom());
-    for (std::size_t j = 0; j < system.size(); ++j) {
-      if (group[j] || y[j] > y[i]) continue;
-      double dx = x[j] - x[i];
-      dx -= lx * std::round(dx / lx);
-      if (std::abs(dx) >= kDiameter) continue;
-      distance = std::min(distance, y[i] - y[j] - std::sqrt(kDiameter * kDiameter - dx * dx));
-    }
-  }
-  return std::max(distance, 0.0);
 }
 
 // --- The run -----------------------------------------------------------------------------------
@@ -300,7 +104,7 @@ class CompressionRun {
     state_.next_exam_step = 0;
     open_trajectory(false);
     write_frame_if_due();
-    record_row(true, state_.phi0);
+    store_row(measure_row(true, state_.phi0));
   }
 
   CompressionResult run() {
@@ -490,14 +294,20 @@ class CompressionRun {
     // The adaptive wall judges the next compression by its own work and drag, not the wait's.
     state_.drag_at_control = system_.energy().drag;
     state_.wall_work_at_control = system_.energy().wall_work;
-    record_row(equilibrated, target);
+    gel::v1::CurveRow row = measure_row(equilibrated, target);
+    // walls-then-affine: the walls walk through the liquid while they gather the network, and
+    // once a relaxed network spans, affine strain steps take it on. Decided before the row is
+    // stored, so that the checkpoint written with it holds the decision.
+    if (settings_.affine_after_spanning && row.spans() && equilibrated) state_.spanned = 1;
+    store_row(std::move(row));
   }
 
   double wall_seconds() const {
     return state_.wall_seconds_before + std::chrono::duration<double>(Clock::now() - session_start_).count();
   }
 
-  void record_row(bool equilibrated, double target) {
+  // The row of the state now: what it records, nothing decided.
+  gel::v1::CurveRow measure_row(bool equilibrated, double target) const {
     gel::v1::CurveRow row;
     const WallStress stress = system_.wall_stress();
     const int index = curve_.rows_size();
@@ -526,9 +336,6 @@ class CompressionRun {
     row.set_bond_creation_energy(system_.energy().created);
     row.set_absorbed_by_walls(system_.energy().absorbed_by_walls);
     row.set_spans(network_spans(system_));
-    // walls-then-affine: the walls walk through the liquid while they gather the network, and
-    // once a relaxed network spans, affine strain steps take it on (in the checkpointed state).
-    if (settings_.affine_after_spanning && row.spans() && equilibrated) state_.spanned = 1;
     if (settings_.quasistatic && index > 0) {
       row.set_residual_force(state_.relax.residual);
       row.set_mean_bond_force(state_.relax.force_scale);
@@ -536,9 +343,14 @@ class CompressionRun {
     }
     for (const double value : {row.p(), row.stored_energy(), row.dissipated_energy(), row.kinetic_energy(), row.phi()})
       require_finite_state("a recorded observable", value);
+    return row;
+  }
+
+  // Appends the row to the curve, with its snapshot, and writes the curve and a checkpoint.
+  void store_row(gel::v1::CurveRow row) {
     if (!options_.out_dir.empty() && options_.write_snapshots) {
       char name[32];
-      std::snprintf(name, sizeof name, "snapshots/k_%03d.pb", index);
+      std::snprintf(name, sizeof name, "snapshots/k_%03d.pb", row.k());
       std::filesystem::create_directories(std::filesystem::path(options_.out_dir) / "snapshots");
       write_configuration(system_.configuration(), (std::filesystem::path(options_.out_dir) / name).string());
       row.set_snapshot(name);
@@ -555,21 +367,7 @@ class CompressionRun {
     if (options_.out_dir.empty()) return;
     CompressionState state = state_;
     state.wall_seconds_before = wall_seconds();
-    gel::v1::Checkpoint checkpoint;
-    checkpoint.set_format(kCheckpointFormat);
-    checkpoint.set_program_version(program_version());
-    *checkpoint.mutable_curve() = curve_;
-    encode_state(state, *checkpoint.mutable_protocol());
-    system_.save_state(*checkpoint.mutable_engine());
-    std::string message;
-    checkpoint.SerializeToString(&message);
-    const std::uint64_t hash = fnv1a(message);
-    std::string bytes(kCheckpointMagic, sizeof kCheckpointMagic);
-    bytes += message;
-    for (int byte = 0; byte < 8; ++byte) bytes.push_back(static_cast<char>((hash >> (8 * byte)) & 0xff));
-    const std::string path = checkpoint_path(options_.out_dir);
-    if (std::filesystem::is_regular_file(path)) std::filesystem::rename(path, previous_checkpoint_path(options_.out_dir));
-    write_file_atomically(path, bytes);
+    write_checkpoint(options_.out_dir, curve_, state, system_);
     last_checkpoint_ = Clock::now();
   }
 
@@ -681,10 +479,6 @@ std::int64_t exam_ruptures(const EventCounts& events, const gel::v1::Compression
   return exam_ruptures(events, compression_settings(compression).exam_all_ruptures);
 }
 
-bool has_checkpoint(const std::string& out_dir) {
-  return !out_dir.empty() && (std::filesystem::is_regular_file(checkpoint_path(out_dir)) ||
-                              std::filesystem::is_regular_file(previous_checkpoint_path(out_dir)));
-}
 
 CompressionResult run_compression(const gel::v1::Scene& scene, const RunOptions& options, const Configuration* initial) {
   const gel::v1::Scene resolved = resolve_compression_scene(scene);
@@ -732,43 +526,6 @@ CompressionResult run_compression(const gel::v1::Scene& scene, const RunOptions&
   return run.run();
 }
 
-namespace {
-struct LoadedCheckpoint {
-  gel::v1::Curve curve;
-  CompressionState state;
-  std::optional<System> system;
-};
-
-// Reads one checkpoint file; every problem is an InvalidArgument naming the file.
-LoadedCheckpoint load_checkpoint(const std::string& path) {
-  const std::string bytes = read_file(path);
-  if (bytes.size() < sizeof kCheckpointMagic + 8 ||
-      std::memcmp(bytes.data(), kCheckpointMagicPrefix, sizeof kCheckpointMagicPrefix) != 0)
-    throw InvalidArgument("out_dir", "'" + path + "' is not a compression checkpoint");
-  if (bytes[sizeof kCheckpointMagicPrefix] != kCheckpointMagic[sizeof kCheckpointMagicPrefix])
-    throw InvalidArgument("out_dir", "'" + path + "' is a checkpoint of format " + std::string(1, bytes[sizeof kCheckpointMagicPrefix]) +
-                                         ", which this version (format " + std::to_string(kCheckpointFormat) + ") does not read");
-  const std::string message = bytes.substr(sizeof kCheckpointMagic, bytes.size() - sizeof kCheckpointMagic - 8);
-  std::uint64_t stored = 0;
-  for (int byte = 7; byte >= 0; --byte)
-    stored = (stored << 8) | static_cast<unsigned char>(bytes[bytes.size() - 8 + static_cast<std::size_t>(byte)]);
-  if (fnv1a(message) != stored) throw InvalidArgument("out_dir", "'" + path + "' is corrupt (checksum mismatch)");
-  LoadedCheckpoint loaded;
-  try {
-    gel::v1::Checkpoint checkpoint;
-    if (!checkpoint.ParseFromString(message)) throw std::runtime_error("it does not parse");
-    if (checkpoint.format() != kCheckpointFormat)
-      throw std::runtime_error("its format is " + std::to_string(checkpoint.format()) + " (written by " +
-                               checkpoint.program_version() + "), not " + std::to_string(kCheckpointFormat));
-    loaded.curve = std::move(*checkpoint.mutable_curve());
-    loaded.state = decode_state(checkpoint.protocol());
-    loaded.system.emplace(System::load_state(checkpoint.engine()));
-  } catch (const std::exception& e) {
-    throw InvalidArgument("out_dir", "'" + path + "' cannot be read: " + e.what());
-  }
-  return loaded;
-}
-}  // namespace
 
 CompressionResult resume_compression(const RunOptions& options) {
   if (!has_checkpoint(options.out_dir))

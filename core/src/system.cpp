@@ -8,6 +8,7 @@
 #include <sstream>
 #include <utility>
 
+#include "bonded_group.hpp"
 #include "gel/bond_evaluator.hpp"
 #include "gel/errors.hpp"
 #include "gel/units.hpp"
@@ -927,28 +928,11 @@ void System::install_walls() {
 void System::translate_wall_group(WallSide side, double dy) {
   if (!walls_active_) throw std::logic_error("no walls");
   require_finite("dy", dy);
-  // The group is every particle connected through bonds to the wall's particles.
-  std::vector<std::vector<std::int32_t>> adjacency(size());
-  for (const Bond& bond : bonds_) {
-    adjacency[bond.i].push_back(bond.j);
-    adjacency[bond.j].push_back(bond.i);
-  }
-  std::vector<char> in_group(size(), 0);
-  std::vector<std::int32_t> frontier;
-  for (const std::int32_t i : wall_members_)
-    if (wall_[i] == side) {
-      in_group[i] = 1;
-      frontier.push_back(i);
-    }
-  while (!frontier.empty()) {
-    const std::int32_t i = frontier.back();
-    frontier.pop_back();
-    for (const std::int32_t j : adjacency[i])
-      if (!in_group[j] && wall_[j] != (side == kTopWall ? kBottomWall : kTopWall)) {
-        in_group[j] = 1;
-        frontier.push_back(j);
-      }
-  }
+  // The group is every particle connected through bonds to the wall's particles, short of the
+  // other wall's.
+  const WallSide other = side == kTopWall ? kBottomWall : kTopWall;
+  const std::vector<char> in_group = bonded_group(
+      size(), bonds_, [&](std::size_t i) { return wall_[i] == side; }, [&](std::size_t i) { return wall_[i] == other; });
   for (std::size_t i = 0; i < size(); ++i)
     if (in_group[i] && wall_[i] == kNoWall) y_[i] += dy;
   if (side == kTopWall)
