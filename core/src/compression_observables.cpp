@@ -6,7 +6,7 @@
 #include <limits>
 #include <string>
 
-#include "bonded_group.hpp"
+#include "engine/bonded_group.hpp"
 #include "gel/errors.hpp"
 #include "gel/units.hpp"
 
