@@ -18,7 +18,7 @@ double neighbours_within(double r) {
   return std::max(0.0, kMaxPackingFraction * (r + kRadius) * (r + kRadius) / (kRadius * kRadius) - 1.0);
 }
 
-// Bytes per item of the engine's state (core/include/gel/system.hpp, core/src/bond_kernels.hpp),
+// Bytes per item of the engine's state (core/include/gel/system.hpp, core/src/engine/bond_kernels.hpp),
 // with the copies a run makes of it: a snapshot (Configuration and its message) per row and a
 // checkpoint (EngineState message and its serialised bytes).
 constexpr double kBytesPerParticle =

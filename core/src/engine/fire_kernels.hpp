@@ -1,5 +1,5 @@
 #pragma once
-// The particle loop of one FIRE iteration (System::relax, system_relax.cpp) as a free function
+// The particle loop of one FIRE iteration (System::relax, relax.cpp) as a free function
 // over the structure-of-arrays, compiled per instruction set like the integrator's loops
 // (simd_dispatch.hpp). Written branch-free so that it vectorises: a cap factor of exactly 1
 // where the old loop skipped the cap, and a maximum (exact in any order) kept in fixed lanes,

@@ -1,5 +1,5 @@
 #pragma once
-// Shared by the integrator (system.cpp) and the FIRE relaxation (system_relax.cpp).
+// Shared by the integrator (integrator.cpp) and the FIRE relaxation (relax.cpp).
 
 namespace gel {
 
