@@ -276,6 +276,40 @@ TEST(ModelRules, AStretchedPairThatBreaksDissipatesItsWholeElasticEnergy) {
   }
 }
 
+TEST(ModelRules, TheEvaluatorsThresholdEventIsABreakInTensionElseTheLargerTangentialExcess) {
+  // Bond 1 (MODEL.md): F_Nc = 1 F0, F_Sc = 1 F0, M_Rc = k_R a^2 phi_c = 20 x 0.05 = 1 F0 a.
+  const BondLaw law = bond_preset("bond1");
+  auto forces = [](double normal, double sliding_x, double sliding_y, double moment) {
+    BondForces f;
+    f.normal_force = normal;
+    f.sliding_x = sliding_x;
+    f.sliding_y = sliding_y;
+    f.rolling_moment = moment;
+    return f;
+  };
+  EXPECT_EQ(threshold_event(forces(0.99, 0.6, 0.79, -0.99), law), BondEvent::kNone);  // |F_T| = 0.99
+  EXPECT_FALSE(exceeds_a_threshold(forces(0.99, 0.6, 0.79, -0.99), law));
+  EXPECT_EQ(threshold_event(forces(1.01, 0, 0, 0), law), BondEvent::kBreak);
+  EXPECT_EQ(threshold_event(forces(-50, 0, 0, 0), law), BondEvent::kNone);  // pressed: never breaks
+  // Past every threshold at once, the break wins.
+  EXPECT_EQ(threshold_event(forces(1.01, 3, 0, 3), law), BondEvent::kBreak);
+  // Both tangential thresholds: the larger factor decides, sliding on a tie.
+  EXPECT_EQ(threshold_event(forces(0, 0.9, 0.9, 1.2), law), BondEvent::kSlidingReset);  // 1.273 against 1.2
+  EXPECT_EQ(threshold_event(forces(0, 0.9, 0.9, -1.3), law), BondEvent::kRollingReset);
+  EXPECT_EQ(threshold_event(forces(0, 1.5, 0, 1.5), law), BondEvent::kSlidingReset);
+  EXPECT_EQ(threshold_event(forces(0, 0, 0, 1.01), law), BondEvent::kRollingReset);
+  // The loads: F_N n + F_T on i, and a n x F_T on both with +-M_R.
+  BondGeometry g{};
+  g.nx = 0.6;
+  g.ny = 0.8;
+  const BondLoads loads = bond_loads(forces(2, 0.8, -0.6, 0.5), g);
+  EXPECT_DOUBLE_EQ(loads.force_x, 2 * 0.6 + 0.8);
+  EXPECT_DOUBLE_EQ(loads.force_y, 2 * 0.8 - 0.6);
+  const double sliding_torque = kRadius * (0.6 * -0.6 - 0.8 * 0.8);  // -1 a F0
+  EXPECT_DOUBLE_EQ(loads.torque_i, 0.5 + sliding_torque);
+  EXPECT_DOUBLE_EQ(loads.torque_j, -0.5 + sliding_torque);
+}
+
 TEST(ModelRules, APairPressedHarderThanTheBreakingForceStaysBonded) {
   const double delta = -0.1;  // F_N = -2 - 80 = -82 F0: |F_N| is 82 F_Nc, but it pushes
   ASSERT_LT(model_normal_force(delta), -50.0);

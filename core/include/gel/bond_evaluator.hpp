@@ -89,6 +89,40 @@ struct BondEvaluator {
   static double rolling_cross(const BondGeometry& g) { return g.xi_ix * g.xi_jy - g.xi_iy * g.xi_jx; }
 };
 
+// What one bond does to its two particles (MODEL.md "Bonds"): the force F = F_N n + F_T on i
+// (on j, -F) and the torques, M_R + a n x F_T on i and -M_R + a n x F_T on j ((-a n) x (-F_T)).
+struct BondLoads {
+  double force_x, force_y, torque_i, torque_j;
+};
+[[gnu::always_inline]] inline BondLoads bond_loads(const BondForces& f, const BondGeometry& g) {
+  const double sliding_torque = kRadius * (g.nx * f.sliding_y - g.ny * f.sliding_x);
+  return {f.normal_force * g.nx + f.sliding_x, f.normal_force * g.ny + f.sliding_y, f.rolling_moment + sliding_torque,
+          -f.rolling_moment + sliding_torque};
+}
+
+// The thresholds (MODEL.md "Bonds"): a bond breaks when F_N > F_Nc (tension only: a pressed pair
+// never breaks), and resets its tangential springs when |F_T| > F_Sc or |M_R| > M_Rc. Written
+// without a branch (| of the comparisons), so that the vectorised bond pass can flag the bonds
+// to evaluate again exactly.
+inline bool exceeds_a_threshold(const BondForces& f, const BondLaw& law) {
+  const double tangential_sq = f.sliding_x * f.sliding_x + f.sliding_y * f.sliding_y;
+  return (f.normal_force > law.f_normal_critical) | (tangential_sq > law.f_sliding_critical * law.f_sliding_critical) |
+         (std::abs(f.rolling_moment) > law.m_rolling_critical);
+}
+
+// Which event a bond past a threshold is. A break wins; a reset is one event whichever
+// tangential thresholds it passed, so that rupture rates count it once: it goes to the cause
+// exceeded by the larger factor (|F_T| / F_Sc against |M_R| / M_Rc; sliding on a tie).
+enum class BondEvent { kNone, kBreak, kSlidingReset, kRollingReset };
+inline BondEvent threshold_event(const BondForces& f, const BondLaw& law) {
+  if (!exceeds_a_threshold(f, law)) return BondEvent::kNone;
+  if (f.normal_force > law.f_normal_critical) return BondEvent::kBreak;
+  const double tangential_sq = f.sliding_x * f.sliding_x + f.sliding_y * f.sliding_y;
+  const double sliding_excess = std::sqrt(tangential_sq) / law.f_sliding_critical;
+  const double rolling_excess = std::abs(f.rolling_moment) / law.m_rolling_critical;
+  return sliding_excess >= rolling_excess ? BondEvent::kSlidingReset : BondEvent::kRollingReset;
+}
+
 // The evaluator for an effect set known only at run time (bookkeeping and checks, not the
 // step loop, which is instantiated per effect set).
 BondForces evaluate_bond(const BondGeometry& g, const BondLaw& law, unsigned effects);

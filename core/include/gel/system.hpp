@@ -243,7 +243,7 @@ class System {
   double contact_stiffness(double delta) const;  // k_N + 3 C delta^2 in compression, k_N apart
   std::vector<double> summed_contact_stiffness() const;  // per particle, over its bonds
   void after_drift();
-  bool handle_threshold(std::size_t b, double fn, double ft_sq, double moment, double nx, double ny);
+  bool handle_threshold(std::size_t b, BondEvent event, double nx, double ny);
   void create_bond(std::int32_t i, std::int32_t j, double shift_x, double shift_y);
   void attach(std::int32_t i, WallSide side);
   void remove_marked_bonds();

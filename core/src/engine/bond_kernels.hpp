@@ -114,16 +114,6 @@ struct BondScratch {
 }
 
 // What the sum pass needs of one bond: the force on i (on j: opposite) and both torques.
-struct BondOutput {
-  double force_x, force_y, torque_i, torque_j;
-};
-[[gnu::always_inline]] inline BondOutput bond_output(const BondForces& f, const BondGeometry& g) {
-  // a n x F_T acts on both particles (on j: (-a n) x (-F_T)).
-  const double sliding_torque = kRadius * (g.nx * f.sliding_y - g.ny * f.sliding_x);
-  return {f.normal_force * g.nx + f.sliding_x, f.normal_force * g.ny + f.sliding_y, f.rolling_moment + sliding_torque,
-          -f.rolling_moment + sliding_torque};
-}
-
 // Pass 1 over bonds [begin, begin + count), into the out_* arrays (offset to begin already).
 // The outputs are restrict parameters: GCC honours restrict on parameters, not on local pointers,
 // and without it the loop needs more run-time alias checks than it will version for.
@@ -143,7 +133,6 @@ GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begi
   const double* __restrict bjy = bonds.bjy.data() + begin;
   const double* __restrict shift_x = bonds.shift_x.data() + begin;
   const double* __restrict shift_y = bonds.shift_y.data() + begin;
-  const double f_sliding_sq = law.f_sliding_critical * law.f_sliding_critical;
   for (std::size_t k = 0; k < count; ++k) {
     const std::int32_t i = bond_i[k], j = bond_j[k];
     double dx = x[j] - x[i], dy = y[j] - y[i];
@@ -161,12 +150,8 @@ GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begi
     }
     if constexpr (Evaluator::needs_rolling()) exact = std::abs(Evaluator::rolling_cross(g)) >= kBendingSeriesLimit;
     const BondForces f = Evaluator::template evaluate<true>(g, law);
-    if constexpr (kCheckThresholds) {
-      const double ft_sq = f.sliding_x * f.sliding_x + f.sliding_y * f.sliding_y;
-      exact = exact | (f.normal_force > law.f_normal_critical) | (ft_sq > f_sliding_sq) |
-              (std::abs(f.rolling_moment) > law.m_rolling_critical);
-    }
-    const BondOutput o = bond_output(f, g);
+    if constexpr (kCheckThresholds) exact = exact | exceeds_a_threshold(f, law);
+    const BondLoads o = bond_loads(f, g);
     out_fx[k] = o.force_x;
     out_fy[k] = o.force_y;
     out_ti[k] = o.torque_i;

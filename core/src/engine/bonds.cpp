@@ -82,14 +82,14 @@ double System::stored_energy() const {
   return total;
 }
 
-// Slow path of the bond loop, taken only when a threshold is exceeded. Returns true when the
-// bond broke (it is marked and contributes no force), false when it was reset.
-bool System::handle_threshold(std::size_t b, double fn, double ft_sq, double moment, double nx, double ny) {
+// Slow path of the bond loop, taken only for a bond past a threshold (the evaluator's
+// threshold_event). Returns true when the bond broke (it is marked and contributes no force),
+// false when it was reset.
+bool System::handle_threshold(std::size_t b, BondEvent event, double nx, double ny) {
   Bond& bond = bonds_[b];
   const BondGeometry g = geometry(bond);
   const BondEnergy energy = gel::bond_energy(g, params_.bond, params_.effects);
-  const BondLaw& law = params_.bond;
-  if (fn > law.f_normal_critical) {
+  if (event == BondEvent::kBreak) {
     ledger_.dissipated += energy.total();
     ++events_.normal;
     if (bond_marked_.size() < bonds_.size()) bond_marked_.resize(bonds_.size(), 0);
@@ -97,12 +97,7 @@ bool System::handle_threshold(std::size_t b, double fn, double ft_sq, double mom
     return true;
   }
   // A reset re-records both contact points at the current line of centres: d = 0, phi = 0.
-  // It is one event, whichever thresholds it passed, so that rupture rates count resets: when
-  // both tangential thresholds are exceeded in the same step it goes to the cause exceeded by
-  // the larger factor (|F_T| / F_Sc against |M_R| / M_Rc; sliding on a tie).
-  const double sliding_excess = std::sqrt(ft_sq) / law.f_sliding_critical;
-  const double rolling_excess = std::abs(moment) / law.m_rolling_critical;
-  if (sliding_excess >= rolling_excess) ++events_.sliding;
+  if (event == BondEvent::kSlidingReset) ++events_.sliding;
   else ++events_.rolling;
   ledger_.dissipated += energy.sliding + energy.rolling;
   to_body(orient_c_[bond.i], orient_s_[bond.i], nx, ny, bond.bix, bond.biy);
@@ -148,17 +143,16 @@ bool System::bond_force_exact(std::size_t b, double& min_delta) {
   }
   BondForces f = Evaluator::evaluate(g, law);
   if constexpr (kCheckThresholds) {
-    const double ft_sq = f.sliding_x * f.sliding_x + f.sliding_y * f.sliding_y;
-    if (f.normal_force > law.f_normal_critical || ft_sq > law.f_sliding_critical * law.f_sliding_critical ||
-        std::abs(f.rolling_moment) > law.m_rolling_critical) {
-      if (handle_threshold(b, f.normal_force, ft_sq, f.rolling_moment, g.nx, g.ny)) {
+    const BondEvent event = threshold_event(f, law);
+    if (event != BondEvent::kNone) {
+      if (handle_threshold(b, event, g.nx, g.ny)) {
         out.state[b] = detail::BondForceArrays::kBroken;
         return true;
       }
       f.sliding_x = f.sliding_y = f.rolling_moment = 0.0;
     }
   }
-  const detail::BondOutput o = detail::bond_output(f, g);
+  const BondLoads o = bond_loads(f, g);
   out.force_x[b] = o.force_x;
   out.force_y[b] = o.force_y;
   out.torque_i[b] = o.torque_i;
