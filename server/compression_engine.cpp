@@ -19,6 +19,7 @@
 #include "gel/generator.hpp"
 #include "gel/resources.hpp"
 #include "job_manager.hpp"
+#include "proto_json.hpp"
 
 namespace geld {
 namespace {
@@ -126,6 +127,11 @@ class CompressionEngine final : public Engine {
       throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "scene: missing (set scene or scene_json)");
     }
     if (has_json) {
+      // Said here rather than by protobuf's parser, whose words name no field.
+      if (const gel::JsonProblem problem = gel::json_problem(request.scene_json(), *gel::v1::Scene::descriptor())) {
+        throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, problem.field.empty() ? "scene_json: " + problem.message
+                                                                                 : "scene." + problem.field + ": " + problem.message);
+      }
       try {
         scene = gel::scene_from_json(request.scene_json());
       } catch (const gel::InvalidArgument& e) {

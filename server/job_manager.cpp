@@ -22,6 +22,7 @@
 #include "gel/fnv1a.hpp"
 #include "gel/resources.hpp"
 #include "gel/seed.hpp"
+#include "proto_json.hpp"
 
 namespace geld {
 
@@ -48,6 +49,21 @@ void require_job_state(int state) {
 
 ApiError unavailable() {
   return ApiError(grpc::StatusCode::UNAVAILABLE, "geld is shutting down; retry when it is back");
+}
+
+// Recorded for QueryCurves beside the resolved scene's fields.
+constexpr char kCacheKeyParameter[] = "run.cache_key";
+constexpr char kProgramVersionParameter[] = "run.program_version";
+
+// Why QueryCurves cannot filter on `field`, or "". A misspelt name would match no job and
+// return an empty table that looks like an answer.
+std::string query_field_problem(const std::string& field) {
+  if (field.empty()) return "must name a scene field, e.g. generator.lx";
+  if (field == kCacheKeyParameter || field == kProgramVersionParameter) return "";
+  const std::string problem = gel::field_path_problem(*gel::v1::Scene::descriptor(), field);
+  if (problem.empty()) return "";
+  return problem + "; besides the scene's fields, " + kProgramVersionParameter + " and " + kCacheKeyParameter +
+         " can be filtered";
 }
 
 // One of the `limit` watcher slots, held for a stream's life. A slot is taken only when one is
@@ -411,10 +427,10 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
   keyed.mutable_generator()->clear_seed();
   const std::string cache_key = gel::fnv1a_hex(engine_->scene_json(keyed) + "|" + seeds_text + "|" + version);
   const double no_number = std::numeric_limits<double>::quiet_NaN();
-  prepared.parameters.emplace_back("run.cache_key", cache_key, no_number);
-  prepared.parameters.emplace_back("run.program_version", version, no_number);
+  prepared.parameters.emplace_back(kCacheKeyParameter, cache_key, no_number);
+  prepared.parameters.emplace_back(kProgramVersionParameter, version, no_number);
   if (!request.rerun()) {
-    if (const auto earlier = store_->find_job_by_parameter("run.cache_key", cache_key, gel::v1::JOB_STATE_SUCCEEDED)) {
+    if (const auto earlier = store_->find_job_by_parameter(kCacheKeyParameter, cache_key, gel::v1::JOB_STATE_SUCCEEDED)) {
       // Labels and name are metadata: the job takes them, so `list --label` finds it for this
       // submitter too; its first submitter still lists it by theirs, so a changed value is refused.
       if (adopt_metadata) {
@@ -732,10 +748,8 @@ gel::v1::QueryCurvesResponse JobManager::query(const gel::v1::QueryCurvesRequest
   for (const auto& [k, v] : request.labels()) filter.labels.emplace_back(k, v);
   for (int i = 0; i < request.parameters_size(); ++i) {
     const auto& p = request.parameters(i);
-    if (p.field().empty()) {
-      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT,
-                     "parameters[" + std::to_string(i) + "].field: must name a scene field, e.g. generator.lx");
-    }
+    if (const std::string problem = query_field_problem(p.field()); !problem.empty())
+      throw ApiError(grpc::StatusCode::INVALID_ARGUMENT, "parameters[" + std::to_string(i) + "].field: " + problem);
     CurveFilter::Parameter fp;
     fp.name = p.field();
     fp.equals = p.equals();

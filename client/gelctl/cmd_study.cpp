@@ -120,7 +120,11 @@ int run_submit(gelctl::Client& client, const StudyArgs& args) {
   gel::v1::SubmitStudyRequest request;
   if (!args.study_file.empty()) {
     // A study written out: gel.v1.SubmitStudyRequest in JSON (its ensembles and their scenes).
-    const auto status = google::protobuf::util::JsonStringToMessage(gelctl::read_file(args.study_file), &request);
+    const std::string text = gelctl::read_file(args.study_file);
+    if (const gel::JsonProblem problem = gel::json_problem(text, *gel::v1::SubmitStudyRequest::descriptor()))
+      throw gelctl::UsageError("--file: " + args.study_file + ": " + (problem.field.empty() ? "" : problem.field + ": ") +
+                               problem.message);
+    const auto status = google::protobuf::util::JsonStringToMessage(text, &request);
     if (!status.ok())
       throw gelctl::UsageError("--file: " + args.study_file + " is not a gel.v1.SubmitStudyRequest in JSON: " +
                                std::string(status.message()));

@@ -89,7 +89,11 @@ std::string trajectory_path(const CompressArgs& args, const std::string& dir) {
 
 gel::v1::Scene build_scene(const CompressArgs& args) {
   gel::v1::Scene scene;
-  if (!args.scene_file.empty()) scene = gel::scene_from_json(gel::read_file(args.scene_file));
+  if (!args.scene_file.empty()) {
+    const std::string text = gel::read_file(args.scene_file);
+    gel::require_json_message("scene", text, *gel::v1::Scene::descriptor());
+    scene = gel::scene_from_json(text);
+  }
   if (!args.preset.empty()) scene.set_preset(args.preset);
   if (scene.preset().empty() && args.scene_file.empty() && args.config_file.empty()) scene.set_preset("quick");
   if (!args.bond.empty()) scene.mutable_bond()->set_preset(args.bond);

@@ -98,6 +98,7 @@ std::vector<gel::StudyEnsembleSpec> read_study_file(const StudyArgs& args) {
     for (const auto& other : ensembles)
       if (other.name == spec.name) throw gel::InvalidArgument(field + ".name", "'" + spec.name + "' appears twice");
     if (!entry.contains("scene") || !entry.at("scene").is_object()) throw gel::InvalidArgument(field + ".scene", "missing");
+    gel::require_json_message(field + ".scene", entry.at("scene").dump(), *gel::v1::Scene::descriptor());
     spec.scene = gel::scene_from_json(entry.at("scene").dump());
     if (entry.contains("seeds")) {
       if (!entry.at("seeds").is_array()) throw gel::InvalidArgument(field + ".seeds", "must be a list of seeds");

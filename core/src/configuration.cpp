@@ -3,10 +3,12 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -198,16 +200,41 @@ namespace {
 bool is_json_path(const std::string& path) {
   return path.size() >= 5 && path.compare(path.size() - 5, 5, ".json") == 0;
 }
+
+// What a configuration file may be, for the messages that refuse one.
+constexpr char kConfigurationFormats[] =
+    "a gel is read as a gel.v1 configuration, JSON in a .json file or binary protobuf in any other "
+    "(as gelsim generate and a run's snapshots/ write them)";
+
+// Formats that gelsim export writes but nothing reads back yet: named, rather than read as a
+// damaged protobuf message (which the bytes of a GSD file may even parse as).
+void refuse_foreign_format(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const char* format = extension == ".gsd"                         ? "GSD"
+                       : extension == ".xyz" || extension == ".extxyz" ? "XYZ"
+                       : extension == ".vtu" || extension == ".pvd" ? "VTK"
+                                                                    : nullptr;
+  if (format)
+    throw InvalidArgument("path", "'" + path + "': " + format +
+                                      " is not read (gelsim export writes GSD, XYZ and VTK files; none is read back yet): " +
+                                      kConfigurationFormats);
+}
 }  // namespace
 
 Configuration read_configuration(const std::string& path) {
+  refuse_foreign_format(path);
   const std::string contents = read_file(path);
   gel::v1::Configuration message;
   if (is_json_path(path)) {
+    // Checked first: protobuf's parser says what is wrong without naming the field.
+    if (const JsonProblem problem = json_problem(contents, *gel::v1::Configuration::descriptor()))
+      throw InvalidArgument("path", "'" + path + "' is not a configuration: " +
+                                        (problem.field.empty() ? "" : problem.field + ": ") + problem.message);
     const auto status = google::protobuf::util::JsonStringToMessage(contents, &message);
     if (!status.ok()) throw InvalidArgument("path", "'" + path + "' is not a configuration: " + status.ToString());
   } else if (!message.ParseFromString(contents)) {
-    throw InvalidArgument("path", "'" + path + "' is not a binary configuration");
+    throw InvalidArgument("path", "'" + path + "' is not a binary gel.v1 configuration: " + kConfigurationFormats);
   }
   return from_proto(message);
 }

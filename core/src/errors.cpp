@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "proto_json.hpp"
+
 namespace gel {
 namespace {
 std::string describe(double value) {
@@ -16,6 +18,11 @@ std::string describe(double value) {
 
 void require_finite(const std::string& field, double value) {
   if (!std::isfinite(value)) throw InvalidArgument(field, "must be a finite number, got " + describe(value));
+}
+
+void require_json_message(const std::string& what, const std::string& text, const google::protobuf::Descriptor& type) {
+  if (const JsonProblem problem = json_problem(text, type))
+    throw InvalidArgument(problem.field.empty() ? what : what + "." + problem.field, problem.message);
 }
 
 void require_positive(const std::string& field, double value) {

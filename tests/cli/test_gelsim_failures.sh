@@ -2,7 +2,8 @@
 # The real gelsim's failure paths for one run, end to end: a numerical instability exits 3 with a
 # `failed` progress line and no curve passed off as finished; SIGTERM exits 4 with a `stopped`
 # line and a checkpoint; --resume from it gives the rows of an uninterrupted run bit for bit; a
-# SIGTERM during a long gel generation is honoured at once; a bad scene exits 2 naming the field.
+# SIGTERM during a long gel generation is honoured at once; a bad scene exits 2 naming the field;
+# a misspelt scene field and a GSD file are refused naming what is wrong and what is read.
 set -euo pipefail
 GELSIM=${1:?usage: test_gelsim_failures.sh GELSIM}
 WORK=$(mktemp -d)
@@ -99,4 +100,21 @@ done
 "$GELSIM" compress --preset quick --fidelity fast --steps 2 --phi-max 0.2 --no-snapshots --out "$WORK/runs/b1" \
   --progress-file "$WORK/runs/b1/progress.jsonl" > /dev/null 2>&1 || fail "a progress file in the new run directory"
 grep -q '"type":"done"' "$WORK/runs/b1/progress.jsonl" || fail "no done line in the progress file"
+
+# expect CODE TEXT -- gelsim-args...: the exit code, and TEXT (fixed) on stderr.
+expect() {
+  local code=$1 text=$2 status=0
+  shift 3
+  "$GELSIM" "$@" > "$WORK/expect.out" 2> "$WORK/expect.err" || status=$?
+  [ "$status" -eq "$code" ] || fail "gelsim $* exited $status, expected $code: $(cat "$WORK/expect.err")"
+  grep -qF -- "$text" "$WORK/expect.err" || fail "gelsim $*: stderr lacks '$text': $(cat "$WORK/expect.err")"
+}
+# 6. Errors in the product's words, naming the field and what is allowed.
+echo '{"preset": "quick", "compression": {"stepz": 2}}' > "$WORK/stepz.json"
+expect 2 "gelsim: invalid argument: scene.compression.stepz: no such field; did you mean 'steps'?" -- compress --scene "$WORK/stepz.json"
+"$GELSIM" generate --preset quick --seed 1 --out "$WORK/gel.json" > /dev/null
+cp "$WORK/gel.json" "$WORK/gel.gsd"
+expect 2 "'$WORK/gel.gsd': GSD is not read (gelsim export writes GSD, XYZ and VTK files; none is read back yet): a gel is read as a gel.v1 configuration, JSON in a .json file or binary protobuf in any other" \
+  -- compress --gel "$WORK/gel.gsd"
+
 echo "gelsim failure paths: ok"

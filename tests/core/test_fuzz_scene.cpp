@@ -7,6 +7,7 @@
 // type, a crash, a sanitizer report) is a bug.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cmath>
 #include <random>
 #include <string>
@@ -63,6 +64,31 @@ TEST(FuzzScene, MutatedScenesAreRefusedWithInvalidArgumentOrResolveToFiniteParam
   EXPECT_GT(refused, kMutants / 4);
   EXPECT_GT(resolved, kMutants / 50);
   std::printf("%d mutants: %d refused, %d resolved\n", kMutants, refused, resolved);
+}
+
+TEST(FuzzScene, WhatAUserWroteIsRefusedNamingAFieldInTheProductsWords) {
+  // A --scene file or a job's scene_json is checked (require_json_message) before protobuf's
+  // parser, whose own words ("invalid value", "Cannot find field", "Unexpected token") name no
+  // field a user could act on: none of them may come through.
+  const std::vector<std::string> seeds = seed_scenes();
+  std::mt19937_64 random(20261207);
+  int refused = 0;
+  for (int n = 0; n < kMutants; ++n) {
+    const std::string text = test::mutate_json(seeds[static_cast<std::size_t>(random() % seeds.size())], random);
+    try {
+      require_json_message("scene", text, *gel::v1::Scene::descriptor());
+      (void)scene_from_json(text);
+    } catch (const InvalidArgument& e) {
+      ++refused;
+      const std::string message = e.what();
+      for (const char* internal : {"INVALID_ARGUMENT:", "TYPE_", "Cannot find field", "Unexpected", "invalid value", "json.exception"})
+        ASSERT_EQ(message.find(internal), std::string::npos) << message << "\nfrom:\n" << text;
+      for (const char c : e.field())
+        ASSERT_TRUE(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '[' || c == ']')
+            << "not a field name: " << message;
+    }
+  }
+  EXPECT_GT(refused, kMutants / 4);
 }
 
 }  // namespace

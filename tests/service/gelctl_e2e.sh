@@ -2,7 +2,8 @@
 # End to end with the real binaries: geld on a free loopback port with its SQLite file in a
 # temporary directory, driven by gelctl and by the Python client.
 #   submit --watch / status --json / curve --json|--csv / list / logs / cancel of a running job
-#   bad input: exit codes and one-line messages, and the daemon keeps serving
+#   bad input: exit codes and one-line messages naming the field (scene JSON, --set, --where), and
+#     the daemon keeps serving
 #   a job the engine fails (numerical instability): watch exits 3 (as for a cancelled job)
 #   SIGKILL mid-job, restart: the job resumes and ends with the curve of an uninterrupted run
 #   studies: study submit --file --watch, list, show, analysis, refusals
@@ -128,7 +129,17 @@ expect() {  # expect CODE PATTERN -- command...
   [ "$(wc -l <"$work/err.txt")" -eq 1 ] || fail "$*: more than one line on stderr"
 }
 echo '{"preset": "quick", ' >"$work/broken.json"
-expect 2 "INVALID_ARGUMENT: scene_json" -- ctl submit --scene "$work/broken.json"
+expect 2 "INVALID_ARGUMENT: scene_json: not JSON: parse error at line 2, column 1: " -- ctl submit --scene "$work/broken.json"
+# Said in the product's words, naming the field: protobuf's parser answered these with "Cannot find
+# field", "invalid value \"nan\" for type TYPE_DOUBLE" and an empty table for a misspelt query.
+expect 2 "INVALID_ARGUMENT: scene.compression.stepz: no such field; did you mean 'steps'?" -- \
+  ctl submit --preset quick --set compression.stepz=4
+expect 2 'INVALID_ARGUMENT: scene.compression.v_wall: must be a finite number, got "nan"' -- \
+  ctl submit --preset quick --set compression.v_wall=nan
+expect 2 'INVALID_ARGUMENT: scene.compression.v_wall: must be a finite number, got "inf"' -- \
+  ctl submit --preset quick --set compression.v_wall=inf
+expect 2 "INVALID_ARGUMENT: parameters\[0\].field: 'generator.nosuch': no such field (generator has preset, lx," -- \
+  ctl query --where generator.nosuch=1
 expect 2 "INVALID_ARGUMENT: scene.preset" -- ctl submit --preset nope
 expect 2 "INVALID_ARGUMENT: scene.generator.lx" -- ctl submit --preset quick --set generator.lx=-5
 expect 2 "INVALID_ARGUMENT: scene.compression.w0" -- ctl submit --preset quick --set compression.w0=NaN

@@ -9,10 +9,11 @@
 #   query_curves() and query_curves_frame() (QueryCurves) over two more jobs with other labels and
 #     seeds: by label, by parameter filters in gelctl's --where syntax and as tuples, by bond preset,
 #     state and limit; the same job ids as `gelctl query --json`; each job's rows with its job_id and
-#     seed and curve()'s numbers; an empty field is InvalidRequestError (INVALID_ARGUMENT) from geld,
-#     a malformed filter a ValueError before anything is sent
+#     seed and curve()'s numbers; an empty or misspelt field is InvalidRequestError (INVALID_ARGUMENT)
+#     from geld naming it, a malformed filter a ValueError before anything is sent
 #   read_configuration() of `gelsim generate` output (.json and .pb) and of a job's snapshot
-#   an unknown job id raises JobNotFoundError naming it
+#   an unknown job id raises JobNotFoundError naming it; a misspelt override InvalidRequestError
+#     naming the field, a NaN override ValueError
 #
 #   test_python_package.sh BUILD_DIR      (exit 77: skipped, no stubs or no Debian Python modules)
 set -euo pipefail
@@ -238,7 +239,6 @@ assert query_ids(where=["generator.seed>=2", ("generator.seed", "<=", 3)]) == [q
 assert query_ids(where=[("generator.lx", "=", 30)]) == [query_b, query_a, small]
 assert query_ids(where=["generator.lx>=30.5"]) == []
 assert query_ids(where=[("compression.fidelity", "==", "fast")], labels={"which": "b"}) == [query_b]
-assert query_ids(where=["no.such.field=1"]) == []
 assert query_ids(bond_preset="bond1", labels={"suite": "query"}) == [query_b, query_a]
 assert query_ids(bond_preset="bond2") == []
 assert query_ids(limit=2) == [query_b, query_a] and query_ids(limit=1, where=["generator.seed<=3"]) == [query_a]
@@ -268,8 +268,12 @@ none = client.query_curves_frame(bond_preset="bond2")
 assert len(none) == 0 and list(none.columns) == list(gel.JOB_CURVE_COLUMNS), none
 assert none["seed"].dtype == frame["seed"].dtype and none["P [F0/a^2]"].dtype == frame["P [F0/a^2]"].dtype
 
+# A misspelt field is refused naming it: it used to match no job, an empty table like an answer.
 for refused, criteria in ((r"parameters\[0\]\.field", {"where": ["=1"]}),
                           (r"parameters\[1\]\.field", {"where": ["generator.seed=1", ("", "<=", 2)]}),
+                          (r"parameters\[0\]\.field: 'generator\.nosuch': no such field \(generator has preset, lx, ",
+                           {"where": ["generator.nosuch=1"]}),
+                          (r"parameters\[0\]\.field: 'no\.such\.field': no such field", {"where": [("no.such.field", "=", 1)]}),
                           (r"limit", {"limit": -1})):
     for call in (client.query_curves, client.query_curves_frame):
         try:
@@ -360,7 +364,23 @@ try:
     raise AssertionError("an unknown preset was accepted")
 except gel.InvalidRequestError as error:
     assert "scene.preset" in str(error), error
-print("ok: an unknown job id raises JobNotFoundError naming it; a bad preset InvalidRequestError")
+# Overrides geld cannot take are said naming the field, not in protobuf's words: a NaN (which
+# json.dumps writes as a bare NaN, not JSON) before anything is sent, a misspelt name by geld.
+for overrides, refusal in (({"compression.v_wall": float("nan")}, "submit: scene.compression.v_wall: must be a finite number, got nan"),
+                           ({"compression.phi_max": numpy.float64("inf")}, "submit: scene.compression.phi_max: must be a finite number"),
+                           ({"effects": [1.0, float("-inf")]}, "submit: scene.effects[1]: must be a finite number")):
+    try:
+        client.submit("quick", overrides=overrides)
+        raise AssertionError(f"{overrides} was accepted")
+    except ValueError as error:
+        assert not isinstance(error, gel.GelError) and str(error).startswith(refusal), error
+try:
+    client.submit("quick", overrides={"compression.stepz": 4})
+    raise AssertionError("compression.stepz was accepted")
+except gel.InvalidRequestError as error:
+    assert error.details == "scene.compression.stepz: no such field; did you mean 'steps'?", error.details
+print("ok: an unknown job id raises JobNotFoundError naming it; a bad preset, a misspelt override InvalidRequestError; "
+      "NaN overrides ValueError")
 
 # Studies: two tiny ensembles as one unit, followed to the end, and their analysis with intervals.
 tiny = {"preset": "quick", "generator": {"n_floc": 8, "n_clusters": 8, "lx": 30, "ly": 50},

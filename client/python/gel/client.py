@@ -77,6 +77,20 @@ def _json_number(value):
     raise TypeError(f"submit: {value!r} ({type(value).__name__}) cannot go into a scene")
 
 
+def _require_finite(value, name):
+    """Raises ValueError naming the field when `value` (a scene dict or one of its values) holds a
+    NaN or an infinity: json.dumps would write them as NaN/Infinity, which JSON does not have, and
+    geld could only say that the text is not JSON."""
+    if isinstance(value, dict):
+        for key, item in value.items():
+            _require_finite(item, f"{name}.{key}")
+    elif isinstance(value, (list, tuple)):
+        for index, item in enumerate(value):
+            _require_finite(item, f"{name}[{index}]")
+    elif isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral) and not math.isfinite(value):
+        raise ValueError(f"submit: {name}: must be a finite number, got {value!r}")
+
+
 def _set_dotted(scene, dotted_name, value):
     node = scene
     *parents, leaf = dotted_name.split(".")
@@ -229,7 +243,8 @@ class Client:
         name, labels: the job's name and {key: value} labels (strings), for jobs() and queries.
         fidelity: compression.fidelity ("fast", "default", "paper", "quasistatic").
         overrides: {"dotted.field": value} applied to the scene, as gelctl's --set
-          ({"compression.steps": 3, "generator.lx": 30}).
+          ({"compression.steps": 3, "generator.lx": 30}). A NaN or infinity in the scene or the
+          overrides raises ValueError naming the field, before anything is sent.
         rerun: run even when a job with the same resolved scene, seeds and program version
           already succeeded; otherwise geld returns that job's id (the run cache, `cached`),
           with these labels added to it (a key it has with another value: InvalidRequestError).
@@ -249,6 +264,7 @@ class Client:
                 _set_dotted(scene_dict, "compression.fidelity", fidelity)
             for dotted_name, value in (overrides or {}).items():
                 _set_dotted(scene_dict, dotted_name, value)
+            _require_finite(scene_dict, "scene")
             # As JSON text, so that geld resolves presets and names a bad field ("scene_json: ...").
             request.scene_json = json.dumps(scene_dict, default=_json_number)
         response = self._call(self._stub.SubmitJob, request)
@@ -344,13 +360,14 @@ class Client:
             or a gel.v1.ParameterFilter.
           "=" matches the field's text or, when value is a number, its numeric value (booleans are
           "true"/"false"); ">=" and "<=" compare numbers and need a finite number. generator.seed
-          matches any member's seed of an ensemble. A field the scene does not have matches nothing.
+          matches any member's seed of an ensemble.
         limit: jobs at most; None (or 0): geld's default, 100; more than 1000 is 1000 (geld's cap).
         state: "succeeded" (None: the default), "failed", "cancelled", "running" or "queued".
 
         A `where` or `labels` item that is not of these forms raises ValueError (TypeError for a
-        wrong type) before anything is sent; what geld refuses (an empty field name, as in "=1", or a
-        negative limit) raises gel.InvalidRequestError (code INVALID_ARGUMENT)."""
+        wrong type) before anything is sent; what geld refuses (an empty field name, as in "=1", a
+        field the scene does not have, named with the ones it has, or a negative limit) raises
+        gel.InvalidRequestError (code INVALID_ARGUMENT)."""
         response = self._query(bond_preset, labels, where, state, limit)
         return [(job_to_dict(entry.job), curves.curve_frame(entry.curve)) for entry in response.curves]
 

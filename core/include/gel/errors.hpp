@@ -4,6 +4,10 @@
 #include <stdexcept>
 #include <string>
 
+namespace google::protobuf {
+class Descriptor;
+}
+
 namespace gel {
 
 // A parameter or input that cannot be simulated. `field` is the dotted name of the offending
@@ -44,6 +48,11 @@ void require_finite(const std::string& field, double value);
 // Throws InvalidArgument unless lo <= value <= hi; `why` says what the bounds are, in the
 // model's terms (it follows the numbers in the message).
 void require_within(const std::string& field, double value, double lo, double hi, const std::string& why);
+
+// Throws InvalidArgument unless `text` is the JSON of a `type` message (e.g. a --scene file):
+// the field is `what` and the dotted name of the field at fault ("scene.compression.stepz"),
+// or `what` alone when the text is not JSON.
+void require_json_message(const std::string& what, const std::string& text, const google::protobuf::Descriptor& type);
 
 // A value quoted in an error message, cut to at most `max_characters` (with "..." and the full
 // length) so that an error about a huge value still fits in a status and names its field.
