@@ -24,6 +24,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "command_line.hpp"
 #include "executor.hpp"
 #include "gel_version.hpp"
 #include "service.hpp"
@@ -210,46 +211,48 @@ int main(int argc, char** argv) {
   app.add_option("--db", db_path, "SQLite file; default DATA_DIR/geld.sqlite");
   app.add_option("--workers", workers, "Jobs run at once (threads) or members followed (slurm); 0: cores")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(gel::cli::non_negative(workers));
   app.add_option("--disk-full-retry", disk_full_retry,
                  "Seconds between retries of a member paused by a full disk (it resumes from its checkpoint)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(gel::cli::positive(disk_full_retry));
   app.add_option("--executor", executor_name, "Who runs the jobs: threads or slurm")->capture_default_str();
   app.add_option("--gelsim", gelsim, "gelsim binary for executors that run it as a process");
-  app.add_option("--max-queue", limits.max_queue, "Queued jobs at most")->capture_default_str()->check(CLI::PositiveNumber);
+  app.add_option("--max-queue", limits.max_queue, "Queued jobs at most")
+      ->capture_default_str()
+      ->check(gel::cli::positive(limits.max_queue));
   app.add_option("--max-particles", limits.max_particles, "Particles per ensemble member at most")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(gel::cli::positive(limits.max_particles));
   app.add_option("--max-seeds", limits.max_seeds, "Ensemble members per job at most")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(gel::cli::positive(limits.max_seeds));
   app.add_option("--threads-per-member", limits.threads_per_member,
                  "Engine threads of each member whose scene does not set integration.threads (results are bit-identical for any number)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1024));
   app.add_option("--max-watchers", limits.max_watchers, "Concurrent WatchJob streams at most")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(gel::cli::positive(limits.max_watchers));
   // Budgets on what a job's scene says it will need (docs/api.md "Budgets and bounds"); sizes
   // take a unit (4GiB, 500MB, bytes without one).
   app.add_option("--max-member-memory", limits.max_member_memory, "Estimated memory of one ensemble member at most")
       ->capture_default_str()
       ->transform(CLI::AsSizeValue(false))
-      ->check(CLI::PositiveNumber);
+      ->check(gel::cli::positive(limits.max_member_memory));
   app.add_option("--max-memory", limits.max_memory,
                  "Estimated memory of the members that may run at once, with geld, at most (threads executor); 0: half the machine's")
       ->capture_default_str()
       ->transform(CLI::AsSizeValue(false))
-      ->check(CLI::NonNegativeNumber);
+      ->check(gel::cli::non_negative(limits.max_memory));
   app.add_option("--max-job-disk", limits.max_job_disk, "Estimated files of all of a job's members at most")
       ->capture_default_str()
       ->transform(CLI::AsSizeValue(false))
-      ->check(CLI::PositiveNumber);
+      ->check(gel::cli::positive(limits.max_job_disk));
   app.add_option("--max-job-particle-steps", limits.max_job_particle_steps,
                  "Particles x steps of all of a job's members at most (1e8 a second on one core)")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(gel::cli::positive(limits.max_job_particle_steps));
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off")->capture_default_str();
   app.add_option("--log-file", log_file, "Also append log lines to this file");
   // Executor settings: --slurm-KEY VALUE reaches the slurm executor as settings[KEY].

@@ -154,6 +154,22 @@ void throw_if_failed(const grpc::Status& status) {
   throw CallError(status, std::string(status_code_name(status.error_code())) + ": " + message);
 }
 
+void require_host_port(const std::string& server, const std::string& source) {
+  // A host without a port is dialled on a port gRPC chooses (0 here), where no geld listens.
+  for (const char* scheme : {"unix:", "unix-abstract:", "dns:", "ipv4:", "ipv6:", "vsock:"})
+    if (server.rfind(scheme, 0) == 0) return;
+  const std::size_t colon = server.rfind(':');
+  const std::string host = colon == std::string::npos ? server : server.substr(0, colon);
+  const std::string port = colon == std::string::npos ? "" : server.substr(colon + 1);
+  const bool bracketed = host.size() > 2 && host.front() == '[' && host.back() == ']';
+  const bool host_ok = !host.empty() && (bracketed || host.find_first_of(":[]") == std::string::npos);
+  const bool port_ok = !port.empty() && port.size() <= 5 && port.find_first_not_of("0123456789") == std::string::npos &&
+                       std::stoi(port) >= 1 && std::stoi(port) <= 65535;
+  if (!host_ok || !port_ok)
+    throw UsageError(source + ": '" + server + "' is not HOST:PORT" + (port.empty() || !host_ok ? " (no port)" : " (port 1 to 65535)") +
+                     "; geld listens on 127.0.0.1:50051 unless started with another --listen");
+}
+
 std::string resolve_token(const std::string& token_file) {
   std::string token;
   if (!token_file.empty()) {

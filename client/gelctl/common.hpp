@@ -35,6 +35,10 @@ struct CallError : std::runtime_error {
 // Throws CallError with the status code's name and the first line of the server's message.
 void throw_if_failed(const grpc::Status& status);
 
+// Throws UsageError naming `source` (--server or GELD_SERVER) unless `server` is HOST:PORT or
+// one of gRPC's own target forms (unix:PATH, dns:, ipv4:, ipv6:).
+void require_host_port(const std::string& server, const std::string& source);
+
 // The bearer token: the first line of `token_file` when given, else $GELD_TOKEN, else none.
 std::string resolve_token(const std::string& token_file);
 

@@ -9,6 +9,7 @@
 #include <map>
 
 #include "command.hpp"
+#include "command_line.hpp"
 #include "common.hpp"
 #include "gel_version.hpp"
 
@@ -27,7 +28,8 @@ int main(int argc, char** argv) {
   std::string server = std::getenv("GELD_SERVER") ? std::getenv("GELD_SERVER") : "127.0.0.1:50051";
   std::string token_file = std::getenv("GELD_TOKEN_FILE") ? std::getenv("GELD_TOKEN_FILE") : "";
   double timeout = 30;
-  app.add_option("--server,-s", server, "geld address host:port (env GELD_SERVER)")->capture_default_str();
+  CLI::Option* server_option =
+      app.add_option("--server,-s", server, "geld address host:port (env GELD_SERVER)")->capture_default_str();
   app.add_option("--token-file", token_file, "File with the bearer token (env GELD_TOKEN_FILE; or GELD_TOKEN)");
   app.add_option("--timeout", timeout, "Seconds per call (not for watch)")->capture_default_str();
   TlsFiles tls;
@@ -50,11 +52,14 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     // --help and --version arrive as "errors" with exit code 0.
     if (e.get_exit_code() == 0) return app.exit(e);
-    std::cerr << "gelctl: " << e.what() << "\n";
+    const std::string command = gel::cli::command_problem(app, "gelctl");
+    std::cerr << "gelctl: " << (command.empty() ? e.what() : command) << "\n";
     return kExitBadInput;
   }
+  const std::string server_source = server_option->count() > 0 ? "--server" : "GELD_SERVER";
 
   try {
+    require_host_port(server, server_source);
     Client client(server, resolve_token(token_file), timeout, tls);
     for (auto& [sub, run] : runners)
       if (sub->parsed()) return run(client);
@@ -62,7 +67,12 @@ int main(int argc, char** argv) {
     std::cerr << "gelctl: " << e.what() << "\n";
     return kExitBadInput;
   } catch (const CallError& e) {
-    std::cerr << "gelctl: " << e.what() << "\n";
+    std::cerr << "gelctl: " << e.what();
+    // gRPC's words ("failed to connect to all addresses") say neither which program nor how to
+    // choose another address; geld's own UNAVAILABLE (shutting down) names itself.
+    if (e.status.error_code() == grpc::StatusCode::UNAVAILABLE && e.status.error_message().rfind("geld ", 0) != 0)
+      std::cerr << " (no geld answers at " << server << ": start geld there, or give its address with --server HOST:PORT or GELD_SERVER)";
+    std::cerr << "\n";
     return e.status.error_code() == grpc::StatusCode::INVALID_ARGUMENT ? kExitBadInput : kExitFailure;
   } catch (const std::exception& e) {
     std::cerr << "gelctl: " << e.what() << "\n";

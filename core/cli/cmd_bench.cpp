@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
+#include "command_line.hpp"
 #include "gel/bench_network.hpp"
 #include "gel/errors.hpp"
 #include "gel/system.hpp"
@@ -118,9 +119,12 @@ gelsim::Registrar bench_command("bench", "speed of the step loop (particle-steps
   sub.add_option("--bond", args->bond, "bond preset (bond1, bond2)");
   sub.add_option("--effects", args->effects, "effects to switch on (default: all)")->delimiter(',');
   sub.add_flag("--subsets", args->subsets, "run all effects and a set of subsets");
-  sub.add_option("--min-seconds", args->min_seconds, "time to run each measurement")->check(CLI::PositiveNumber);
-  sub.add_option("--v-wall", args->v_wall, "wall speed during the benchmark [a/t0]")->check(CLI::NonNegativeNumber);
-  sub.add_option("--skin", args->skin, "neighbour-list skin [a] (default: the scene default)")->check(CLI::PositiveNumber);
+  sub.add_option("--min-seconds", args->min_seconds, "time to run each measurement")
+      ->check(gel::cli::positive(args->min_seconds));
+  sub.add_option("--v-wall", args->v_wall, "wall speed during the benchmark [a/t0]")
+      ->check(gel::cli::non_negative(args->v_wall));
+  sub.add_option("--skin", args->skin, "neighbour-list skin [a] (default: the scene default)")
+      ->check(gel::cli::positive(args->skin));
   sub.add_option("--seed", args->seed, "seed of the network, 1 to 2^63-1")->check(gelsim::seed_validator());
   sub.add_flag("--json", args->json, "print one JSON object");
   sub.add_option("--threads", args->threads, "engine threads; several (1,2,4): a scaling table")

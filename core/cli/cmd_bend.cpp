@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
+#include "command_line.hpp"
 #include "gel/bending.hpp"
 #include "gel/errors.hpp"
 
@@ -91,15 +92,17 @@ gelsim::Registrar bend_command("bend", "three-point bending of a straight chain"
   auto args = std::make_shared<BendArgs>();
   sub.add_option("--bond", args->bond, "bond preset (bond1, bond2)");
   sub.add_option("--chain", args->chain, "particles in the chain (odd)")->check(CLI::Range(3, 10001));
-  sub.add_option("--force", args->force, "F_ex on the middle particle [F0]")->check(CLI::PositiveNumber);
-  sub.add_option("--dt-fraction", args->dt_fraction, "time step as a fraction of the shortest period")->check(CLI::PositiveNumber);
-  sub.add_option("--eta-factor", args->eta_factor, "viscosity in units of eta_cd (default 0.1)")->check(CLI::NonNegativeNumber);
-  sub.add_option("--max-time", args->max_time, "time allowed per phase [t0]")->check(CLI::PositiveNumber);
+  sub.add_option("--force", args->force, "F_ex on the middle particle [F0]")->check(gel::cli::positive(args->force));
+  sub.add_option("--dt-fraction", args->dt_fraction, "time step as a fraction of the shortest period")
+      ->check(gel::cli::positive(args->dt_fraction));
+  sub.add_option("--eta-factor", args->eta_factor, "viscosity in units of eta_cd (default 0.1)")
+      ->check(gel::cli::non_negative(args->eta_factor));
+  sub.add_option("--max-time", args->max_time, "time allowed per phase [t0]")->check(gel::cli::positive(args->max_time));
   sub.add_flag("--json", args->json, "print one JSON object");
   sub.add_flag("--find-threshold", args->find_threshold, "bisect for the force where the chain stops recovering");
-  sub.add_option("--low", args->low, "lower bracket for --find-threshold")->check(CLI::PositiveNumber);
-  sub.add_option("--high", args->high, "upper bracket for --find-threshold")->check(CLI::PositiveNumber);
-  sub.add_option("--resolution", args->resolution, "bracket width to stop at")->check(CLI::PositiveNumber);
+  sub.add_option("--low", args->low, "lower bracket for --find-threshold")->check(gel::cli::positive(args->low));
+  sub.add_option("--high", args->high, "upper bracket for --find-threshold")->check(gel::cli::positive(args->high));
+  sub.add_option("--resolution", args->resolution, "bracket width to stop at")->check(gel::cli::positive(args->resolution));
   return [args] { return run_bend(*args); };
 });
 

@@ -28,6 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
+#include "command_line.hpp"
 #include "duration_text.hpp"
 #include "gel/analysis/ensemble_statistic.hpp"
 #include "gel/compression.hpp"
@@ -500,19 +501,21 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--threads", args->threads,
                  "engine threads per run (results are bit-identical for any number; default: the scene's integration.threads, else 1)")
       ->check(CLI::Range(1, 1024));
-  sub.add_option("--jobs", args->jobs, "ensemble members run at a time (0: one per core; default 1)")->check(CLI::NonNegativeNumber);
+  sub.add_option("--jobs", args->jobs, "ensemble members run at a time (0: one per core; default 1)")
+      ->check(gel::cli::non_negative(args->jobs));
   sub.add_option("--fidelity", args->fidelity, "default (= quasistatic: FIRE relaxation at each target), paper (MODEL.md reference values) or fast (biased, for exploring)");
   sub.add_option("--out", args->out, "run directory: curve.json/csv, profiles.csv, snapshots/, checkpoint.bin");
   sub.add_option("--resume", args->resume, "continue the run in DIR (default: --out) from its checkpoint")->expected(0, 1);
   sub.add_option("--progress-file", args->progress_file, "append one JSON line per progress message and row");
-  sub.add_option("--progress-interval", args->progress_interval, "seconds between progress messages")->check(CLI::NonNegativeNumber);
+  sub.add_option("--progress-interval", args->progress_interval, "seconds between progress messages")
+      ->check(gel::cli::non_negative(args->progress_interval));
   sub.add_flag("--json", args->json, "print the curve as one JSON object (curve.json's format)");
   sub.add_flag("--no-snapshots", args->no_snapshots, "write no configuration snapshots");
   sub.add_flag("--estimate", args->estimate,
                "print what one run will hold and cost (memory and disk at most, steps at least) and exit without running");
   sub.add_option("--trajectory-every", args->trajectory_every,
                  "write a GSD trajectory frame every N engine steps (OVITO, gsd.hoomd; README \"Data out\")")
-      ->check(CLI::PositiveNumber);
+      ->check(gel::cli::positive(args->trajectory_every));
   sub.add_option("--trajectory", args->trajectory, "the trajectory file (default OUT/trajectory.gsd; not with --seeds)");
   sub.add_option("--phi-max", args->phi_max, "last target packing fraction");
   sub.add_option("--steps", args->steps, "k', the number of targets (at least 1; leave it out for the preset's)")

@@ -5,6 +5,7 @@
 #include <map>
 
 #include "command.hpp"
+#include "command_line.hpp"
 #include "gel/configuration.hpp"
 #include "gel/errors.hpp"
 
@@ -31,7 +32,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::cerr << "gelsim: " << e.what() << "\n";
+    const std::string command = gel::cli::command_problem(app, "gelsim");
+    std::cerr << "gelsim: " << (command.empty() ? e.what() : command) << "\n";
     return 2;
   }
   try {

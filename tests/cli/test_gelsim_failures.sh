@@ -3,7 +3,7 @@
 # `failed` progress line and no curve passed off as finished; SIGTERM exits 4 with a `stopped`
 # line and a checkpoint; --resume from it gives the rows of an uninterrupted run bit for bit; a
 # SIGTERM during a long gel generation is honoured at once; a bad scene exits 2 naming the field;
-# a misspelt scene field and a GSD file are refused naming what is wrong and what is read.
+# errors name what was typed (a command, a flag's value, a scene field, a GSD file).
 set -euo pipefail
 GELSIM=${1:?usage: test_gelsim_failures.sh GELSIM}
 WORK=$(mktemp -d)
@@ -109,7 +109,9 @@ expect() {
   [ "$status" -eq "$code" ] || fail "gelsim $* exited $status, expected $code: $(cat "$WORK/expect.err")"
   grep -qF -- "$text" "$WORK/expect.err" || fail "gelsim $*: stderr lacks '$text': $(cat "$WORK/expect.err")"
 }
-# 6. Errors in the product's words, naming the field and what is allowed.
+# 6. Errors in the product's words, naming what was typed and what is allowed.
+expect 2 "gelsim: unknown command 'frobnicate': the commands are analyze, " -- frobnicate
+expect 2 "gelsim: --jobs: must be a whole number >= 0, got 'x'" -- compress --jobs x
 echo '{"preset": "quick", "compression": {"stepz": 2}}' > "$WORK/stepz.json"
 expect 2 "gelsim: invalid argument: scene.compression.stepz: no such field; did you mean 'steps'?" -- compress --scene "$WORK/stepz.json"
 "$GELSIM" generate --preset quick --seed 1 --out "$WORK/gel.json" > /dev/null

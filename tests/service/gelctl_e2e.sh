@@ -8,6 +8,8 @@
 #   SIGKILL mid-job, restart: the job resumes and ends with the curve of an uninterrupted run
 #   studies: study submit --file --watch, list, show, analysis, refusals
 #   remote mode: --listen 0.0.0.0 needs --token-file; calls without the token UNAUTHENTICATED
+#   the command line: an unknown command, --server without a port, no geld at the address, a
+#     --workers that is not a number: each said in one line naming what was typed
 #
 #   gelctl_e2e.sh BUILD_DIR
 set -euo pipefail
@@ -151,6 +153,15 @@ expect 2 "INVALID_ARGUMENT: labels: key 'suite' is 'e2e' on $job" -- ctl submit 
 expect 2 "submit" -- ctl submit
 ctl status "$job" >/dev/null || fail "geld stopped serving after bad input"
 echo "ok: bad input gets exit 2/1 with the status code and the field"
+# The command line and the address: what was typed, and where to look (no geld needed).
+expect 2 "gelctl: unknown command 'frobnicate': the commands are submit, list, " -- "$gelctl" frobnicate
+expect 2 "gelctl: --server: '127.0.0.1' is not HOST:PORT (no port)" -- "$gelctl" --server 127.0.0.1 list
+expect 2 "gelctl: GELD_SERVER: 'localhost' is not HOST:PORT (no port)" -- env GELD_SERVER=localhost "$gelctl" list
+dead_port=$(free_port)
+expect 1 "gelctl: UNAVAILABLE: .* (no geld answers at 127.0.0.1:$dead_port: start geld there, or give its address with --server HOST:PORT or GELD_SERVER)" -- \
+  "$gelctl" --server "127.0.0.1:$dead_port" --timeout 10 list
+expect 2 "geld: --workers: must be a whole number >= 0, got 'abc'" -- "$geld" --workers abc
+echo "ok: an unknown command, an address without a port, no geld there and a bad --workers are said in words"
 
 # ---- studies: submit --file --watch, list, show, analysis, refusals ------------------------
 cat >"$work/study.json" <<'JSON'

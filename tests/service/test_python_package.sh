@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The Python package `gel` (client/python/gel) against a real geld on loopback, with Debian's
 # /usr/bin/python3 (python3-grpcio, python3-protobuf, python3-numpy, python3-pandas):
-#   connect with the token read as gelctl reads it; a wrong token is UNAUTHENTICATED
+#   connect with the token read as gelctl reads it; a wrong token is UNAUTHENTICATED; an address
+#     without a port is a ValueError, and UNAVAILABLE says where it looked and how to choose geld
 #   submit a small 2-seed ensemble, watch it from queued to succeeded (snapshot, progress and
 #     rows as plain dicts with numbers as numbers), cancel a running job
 #   curve() as a DataFrame: rows, dtypes, the engine's curve.csv header and values, and the
@@ -64,9 +65,12 @@ done
 "$gelsim" generate --preset quick --seed 2 --out "$work/gel.json" >/dev/null || fail "gelsim generate (json)"
 "$gelsim" generate --preset quick --seed 2 --out "$work/gel.pb" >/dev/null || fail "gelsim generate (pb)"
 
+# A port where no geld listens, for the UNAVAILABLE message.
+dead_port=$($py -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1]); s.close()')
+
 # The source package and the build tree's stubs, as a researcher uses them from a checkout.
 PYTHONPATH=$source_dir/client/python GEL_PYTHON_STUBS=$stubs GELD_SERVER=$server GELD_TOKEN_FILE=$work/token \
-  $py - "$gelctl" "$data" "$work" <<'PY' || fail "python package checks"
+  $py - "$gelctl" "$data" "$work" "$dead_port" <<'PY' || fail "python package checks"
 import json
 import math
 import os
@@ -79,7 +83,7 @@ import pandas
 
 import gel
 
-gelctl, data_dir, work = sys.argv[1:4]
+gelctl, data_dir, work, dead_port = sys.argv[1:5]
 client = gel.connect()  # address and token from GELD_SERVER and GELD_TOKEN_FILE, as gelctl
 
 try:
@@ -87,6 +91,21 @@ try:
     raise AssertionError("a wrong token was accepted")
 except gel.GelError as error:
     assert error.code == "UNAUTHENTICATED", error
+# Where geld is: an address without a port is refused, and no geld there says where it looked.
+for address in ("127.0.0.1", "localhost:", "[::1]:70000"):
+    try:
+        gel.connect(address)
+        raise AssertionError(f"connect({address!r}) was accepted")
+    except ValueError as error:
+        assert f"connect: address {address!r} is not HOST:PORT" in str(error), error
+dead = gel.connect(f"127.0.0.1:{dead_port}", timeout=10)
+try:
+    dead.jobs()
+    raise AssertionError("a call to a port where no geld listens succeeded")
+except gel.GelError as error:
+    assert error.code == "UNAVAILABLE" and error.details.startswith(f"no geld answers at 127.0.0.1:{dead_port} ("), error
+    assert error.details.endswith("start geld there, or give its HOST:PORT to gel.connect() or in $GELD_SERVER"), error
+print("ok: connect: a wrong token UNAUTHENTICATED, an address without a port ValueError, UNAVAILABLE says where it looked")
 
 # A long job holds the only worker, so the small job waits queued until it is cancelled.
 blocker = client.submit("quick", seeds=[7], name="blocker")

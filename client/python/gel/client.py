@@ -4,6 +4,7 @@ import json
 import math
 import numbers
 import os
+import re
 
 import grpc
 
@@ -34,6 +35,21 @@ def read_token_file(path):
         return token_file.readline().strip()
 
 
+# gRPC's own target forms name their transport; anything else must be HOST:PORT, because a bare
+# host is dialled on a port geld does not listen on. The same rule as gelctl's --server.
+_TARGET_SCHEMES = ("unix:", "unix-abstract:", "dns:", "ipv4:", "ipv6:", "vsock:")
+_HOST_PORT = re.compile(r"^(\[[^\]]+\]|[^:\[\]]+):([0-9]{1,5})$")
+
+
+def _require_host_port(address, source):
+    if address.startswith(_TARGET_SCHEMES):
+        return
+    match = _HOST_PORT.match(address)
+    if not match or not 1 <= int(match.group(2)) <= 65535:
+        raise ValueError(f"connect: {source} {address!r} is not HOST:PORT (geld listens on {DEFAULT_ADDRESS} "
+                         "unless started with another --listen)")
+
+
 def _read_bytes(path):
     with open(path, "rb") as pem_file:
         return pem_file.read()
@@ -49,8 +65,12 @@ def connect(address=None, token=None, *, token_file=None, timeout=30.0, tls_ca=N
     tls_ca: PEM file of the CA that signed geld's --tls-cert (default $GELD_TLS_CA): talk TLS;
     tls_cert, tls_key: this client's certificate and key, for a geld with --tls-client-ca.
     Nothing is sent until the first call, so an unreachable geld shows there (GelError UNAVAILABLE).
+    An address that is not HOST:PORT (or one of gRPC's unix:, dns:, ipv4:, ipv6: forms) raises
+    ValueError: a bare host would be dialled on a port no geld listens on.
     """
+    source = "address" if address else "$GELD_SERVER"
     address = address or os.environ.get("GELD_SERVER") or DEFAULT_ADDRESS
+    _require_host_port(address, source)
     if token is None:
         token = read_token_file(token_file) if token_file else _token_from_environment()
     tls_ca = tls_ca or os.environ.get("GELD_TLS_CA") or None

@@ -29,7 +29,9 @@ def error_from_rpc(rpc_error, address, job_id=None):
         return JobNotFoundError(code, details, job_id)
     if code == "INVALID_ARGUMENT":
         return InvalidRequestError(code, details, job_id)
-    if code == "UNAVAILABLE":
-        # gRPC's own text ("failed to connect to all addresses") does not say which daemon.
-        details = f"geld at {address}: {details}"
+    if code == "UNAVAILABLE" and not details.startswith("geld "):
+        # gRPC's own text ("failed to connect to all addresses") says neither which daemon nor
+        # how to choose another; geld's own (shutting down) starts with "geld".
+        details = (f"no geld answers at {address} ({details}): start geld there, or give its HOST:PORT "
+                   "to gel.connect() or in $GELD_SERVER")
     return GelError(code, details, job_id)
