@@ -5,7 +5,7 @@
 // failed. Implementations:
 //   "threads"  in-process: gel::run_compression / gel::resume_compression on the worker thread
 //              (server/thread_executor.cpp);
-//   "slurm"    (issue 8) one sbatch job per member running `gelsim compress ... --progress-file F`
+//   "slurm"    one sbatch job per member running `gelsim compress ... --progress-file F`
 //              and following that file; registered in make_executor().
 // Selected with `geld --executor NAME`; the worker count (`--workers`) is the number of members
 // followed at once.

@@ -26,6 +26,7 @@
 
 #include "gel/compression.hpp"
 #include "gel/curve_io.hpp"
+#include "gel/run_directory.hpp"
 
 extern char** environ;
 
@@ -398,6 +399,10 @@ std::string SlurmExecutor::member_dir(const RunContext& ctx) const {
 
 Handle SlurmExecutor::submit(const RunContext& ctx, const std::string& dir, int requeues) {
   const bool resume = gel::has_checkpoint(dir);
+  // Without a checkpoint the member starts over (the run is deterministic); what an attempt
+  // left before its first checkpoint would make gelsim refuse the folder as a used one.
+  if (!resume)
+    for (const std::string& name : gel::earlier_run_outputs(dir)) fs::remove_all(fs::path(dir) / name);
   const std::string scene_path = (fs::path(dir) / "scene.json").string();
   std::string script = slurm::shell_quote(options_.gelsim) + " compress --scene " + slurm::shell_quote(scene_path) +
                        " --out " + slurm::shell_quote(dir) + " --progress-file " +

@@ -1,5 +1,5 @@
 #pragma once
-// The "slurm" executor (issue 8): each ensemble member is one Slurm batch job,
+// The "slurm" executor: each ensemble member is one Slurm batch job,
 //
 //   sbatch --parsable --job-name gel-<job>-<member> --output <dir>/slurm-%j.out [extra args]
 //          --wrap "<gelsim> compress --scene <dir>/scene.json --out <dir>

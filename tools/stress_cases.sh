@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Long hard cases (issue 7): whole compressions that must either finish with finite, bounded
+# Long hard cases: whole compressions that must either finish with finite, bounded
 # results or stop with gelsim's documented instability exit code (3). The fast hard cases are
 # unit tests (tests/core/test_hard_cases.cpp); these take minutes, so they are a program:
 #

@@ -37,6 +37,7 @@
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
+#include "gel/run_directory.hpp"
 
 namespace {
 
@@ -52,6 +53,7 @@ struct CompressArgs {
   std::string fidelity;
   std::string out;
   std::optional<std::string> resume;
+  bool overwrite = false;
   std::string progress_file;
   double progress_interval = 1.0;
   bool json = false;
@@ -86,6 +88,33 @@ std::string trajectory_path(const CompressArgs& args, const std::string& dir) {
   if (!args.trajectory.empty()) return args.trajectory;
   if (dir.empty()) throw gel::InvalidArgument("trajectory", "--trajectory-every needs --out or --trajectory FILE.gsd");
   return gel::default_trajectory_path(dir);
+}
+
+// A fresh run's --out: refused when an earlier run is there (its trajectory, snapshots past the
+// new last row and plots would stay beside the new curve, read as one run), cleared with
+// --overwrite.
+void prepare_out_dir(const CompressArgs& args) {
+  if (args.resume) {
+    if (args.overwrite) throw gel::InvalidArgument("--overwrite", "starts the run afresh, --resume continues it: give one of them");
+    return;
+  }
+  if (args.out.empty()) {
+    if (args.overwrite) throw gel::InvalidArgument("--overwrite", "needs --out DIR, the run directory to clear");
+    return;
+  }
+  auto joined = [](const std::vector<std::string>& names) {
+    std::string text;
+    for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
+    return text;
+  };
+  if (args.overwrite) {
+    const std::string removed = joined(gel::clear_earlier_run(args.out));
+    if (!removed.empty()) std::cerr << "gelsim: --overwrite: removed the earlier run's " << removed << " from " << args.out << "\n";
+    return;
+  }
+  if (const std::string found = joined(gel::earlier_run_outputs(args.out)); !found.empty())
+    throw gel::InvalidArgument("--out", "'" + args.out + "' holds an earlier run (" + found + "): continue it with --resume " +
+                                            args.out + ", replace it with --overwrite, or choose another --out");
 }
 
 gel::v1::Scene build_scene(const CompressArgs& args) {
@@ -408,6 +437,7 @@ int run_compress(const CompressArgs& args) {
     std::cout << out.dump(2) << '\n';
     return 0;
   }
+  prepare_out_dir(args);
   if (!args.seeds.empty()) {
     if (args.seed) throw gel::InvalidArgument("--seeds", "give --seed (one run) or --seeds (an ensemble), not both");
     if (!args.config_file.empty()) throw gel::InvalidArgument("--seeds", "an ensemble generates its gels: --gel is for one run");
@@ -458,7 +488,14 @@ int run_compress(const CompressArgs& args) {
     } else {
       std::optional<gel::Configuration> initial;
       if (!args.config_file.empty()) initial = gel::read_configuration(args.config_file);
-      result = gel::run_compression(build_scene(args), options, initial ? &*initial : nullptr);
+      const gel::v1::Scene scene = build_scene(args);
+      if (options.out_dir.empty()) {
+        // Said before the run rather than found out after it; a scene that is refused is refused first.
+        (void)gel::resolve_compression_scene(scene);
+        std::cerr << "gelsim: no --out DIR: the curve is printed at the end, and no curve.json, snapshot or checkpoint is "
+                     "written (the run cannot be resumed)\n";
+      }
+      result = gel::run_compression(scene, options, initial ? &*initial : nullptr);
     }
   } catch (const gel::InvalidArgument& e) {
     progress_file.write({{"type", "failed"}, {"kind", "invalid_argument"}, {"field", e.field()}, {"error", e.what()}});
@@ -506,6 +543,9 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--fidelity", args->fidelity, "default (= quasistatic: FIRE relaxation at each target), paper (MODEL.md reference values) or fast (biased, for exploring)");
   sub.add_option("--out", args->out, "run directory: curve.json/csv, profiles.csv, snapshots/, checkpoint.bin");
   sub.add_option("--resume", args->resume, "continue the run in DIR (default: --out) from its checkpoint")->expected(0, 1);
+  sub.add_flag("--overwrite", args->overwrite,
+               "replace an earlier run in --out: remove its outputs first (only where gelsim wrote its checkpoint, "
+               "curve.json or ensemble.json); without it a used --out is refused");
   sub.add_option("--progress-file", args->progress_file, "append one JSON line per progress message and row");
   sub.add_option("--progress-interval", args->progress_interval, "seconds between progress messages")
       ->check(gel::cli::non_negative(args->progress_interval));

@@ -3,7 +3,8 @@
 # `failed` progress line and no curve passed off as finished; SIGTERM exits 4 with a `stopped`
 # line and a checkpoint; --resume from it gives the rows of an uninterrupted run bit for bit; a
 # SIGTERM during a long gel generation is honoured at once; a bad scene exits 2 naming the field;
-# errors name what was typed (a command, a flag's value, a scene field, a GSD file).
+# errors name what was typed (a command, a flag's value, a scene field, a GSD file); a used --out
+# is refused unless --resume or --overwrite, which clears only a run's files.
 set -euo pipefail
 GELSIM=${1:?usage: test_gelsim_failures.sh GELSIM}
 WORK=$(mktemp -d)
@@ -119,4 +120,28 @@ cp "$WORK/gel.json" "$WORK/gel.gsd"
 expect 2 "'$WORK/gel.gsd': GSD is not read (gelsim export writes GSD, XYZ and VTK files; none is read back yet): a gel is read as a gel.v1 configuration, JSON in a .json file or binary protobuf in any other" \
   -- compress --gel "$WORK/gel.gsd"
 
+# 7. A used --out: refused unless --resume or --overwrite, which removes the earlier run's files
+#    (its trajectory and snapshots past the new last row stayed beside the new curve) and only
+#    where gelsim wrote a run. Without --out the run says that it writes nothing.
+SHORT=(--preset quick --fidelity fast --phi-max 0.2)
+"$GELSIM" compress "${SHORT[@]}" --steps 3 --trajectory-every 20000 --out "$WORK/used" > /dev/null 2>&1 || fail "the first run"
+[ -f "$WORK/used/trajectory.gsd" ] && [ -f "$WORK/used/snapshots/k_003.pb" ] || fail "the first run left no trajectory or k_003"
+cp "$WORK/used/curve.json" "$WORK/first_curve.json"
+expect 2 "gelsim: invalid argument: --out: '$WORK/used' holds an earlier run (checkpoint.bin, checkpoint.prev.bin, curve.csv, curve.json, profiles.csv, snapshots, trajectory.gsd): continue it with --resume $WORK/used, replace it with --overwrite, or choose another --out" \
+  -- compress "${SHORT[@]}" --steps 2 --out "$WORK/used"
+cmp -s "$WORK/used/curve.json" "$WORK/first_curve.json" || fail "a refused run changed the earlier curve"
+expect 0 "gelsim: --overwrite: removed the earlier run's checkpoint.bin, checkpoint.prev.bin, curve.csv, curve.json, profiles.csv, snapshots, trajectory.gsd from $WORK/used" \
+  -- compress "${SHORT[@]}" --steps 2 --out "$WORK/used" --overwrite
+[ ! -e "$WORK/used/trajectory.gsd" ] || fail "--overwrite left the earlier run's trajectory"
+[ "$(ls "$WORK/used/snapshots")" = "$(printf 'k_000.pb\nk_001.pb\nk_002.pb')" ] || fail "snapshots after --overwrite: $(ls "$WORK/used/snapshots")"
+expect 2 "--overwrite: starts the run afresh, --resume continues it" -- compress --resume "$WORK/used" --overwrite
+mkdir -p "$WORK/photos/snapshots"
+echo "mine" > "$WORK/photos/snapshots/beach.jpg"
+expect 2 "out_dir: '$WORK/photos' holds snapshots but no checkpoint, curve.json or ensemble.json that gelsim wrote" \
+  -- compress "${SHORT[@]}" --steps 2 --out "$WORK/photos" --overwrite
+[ -f "$WORK/photos/snapshots/beach.jpg" ] || fail "--overwrite removed a folder that was not a run's"
+"$GELSIM" compress "${SHORT[@]}" --steps 2 --seeds 1-2 --out "$WORK/ens" > /dev/null 2>&1 || fail "an ensemble"
+expect 2 "'$WORK/ens' holds an earlier run (ensemble.json, seed_1, seed_2)" -- compress "${SHORT[@]}" --steps 2 --seeds 1-2 --out "$WORK/ens"
+expect 0 "gelsim: no --out DIR: the curve is printed at the end, and no curve.json, snapshot or checkpoint is written" \
+  -- compress "${SHORT[@]}" --steps 2
 echo "gelsim failure paths: ok"

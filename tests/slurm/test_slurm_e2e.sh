@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# End to end against a real single-node Slurm (issue 8):
+# End to end against a real single-node Slurm:
 #   1. start the test cluster (slurm_cluster.sh) - skip (exit 77) where it cannot start;
 #   2. geld --executor threads: `gelctl submit --preset quick --seeds 1,2 --watch`, its curve;
 #   3. geld --executor slurm (shared dir in the temp dir): the same submission, followed to

@@ -242,7 +242,7 @@ class System {
   void check_contact_stiffness();
   double contact_stiffness(double delta) const;  // k_N + 3 C delta^2 in compression, k_N apart
   std::vector<double> summed_contact_stiffness() const;  // per particle, over its bonds
-  void after_drift();
+  void find_new_contacts();
   bool handle_threshold(std::size_t b, BondEvent event, double nx, double ny);
   void create_bond(std::int32_t i, std::int32_t j, double shift_x, double shift_y);
   void attach(std::int32_t i, WallSide side);

@@ -36,9 +36,9 @@ struct BondForceArrays {
   std::vector<double> force_x, force_y;  // on i (on j: opposite)
   std::vector<double> torque_i, torque_j;
   std::vector<double> delta;             // gap
-  std::vector<BondState> state;       // kCommon, kExact (pass 2 redoes it) or kBroken (no force)
+  std::vector<BondState> state;       // kCommon, kFlagged (pass 2 redoes it) or kBroken (no force)
 
-  static constexpr BondState kCommon = 0, kExact = 1, kBroken = 2;
+  static constexpr BondState kCommon = 0, kFlagged = 1, kBroken = 2;
 };
 
 // The bonds as arrays, a mirror of System::bonds_ (GCC vectorises gathers whose indices come
@@ -157,7 +157,7 @@ GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begi
     out_ti[k] = o.torque_i;
     out_tj[k] = o.torque_j;
     out_delta[k] = g.delta;
-    out_state[k] = static_cast<BondState>(exact);  // kCommon or kExact
+    out_state[k] = static_cast<BondState>(exact);  // kCommon or kFlagged
   }
 }
 

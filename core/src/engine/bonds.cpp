@@ -206,7 +206,7 @@ void System::bond_forces() {
       const std::size_t count = std::min(detail::kBondChunk, bond_count - begin);
       pass1(begin, count, chunk.force_x, chunk.force_y, chunk.torque_i, chunk.torque_j, chunk.delta, chunk.state);
       for (std::size_t k = 0; k < count; ++k) {
-        if (chunk.state[k] == detail::BondForceArrays::kExact) [[unlikely]] {
+        if (chunk.state[k] == detail::BondForceArrays::kFlagged) [[unlikely]] {
           // Pass 2 writes into the all-bond arrays; this bond's results are read from there.
           const std::size_t b = begin + k;
           if (bond_force_exact<kMask>(b, exact_min_delta)) {
@@ -246,7 +246,7 @@ void System::bond_forces() {
   });
   for (const double chunk_min : scratch.chunk_min_delta) min_delta = std::min(min_delta, chunk_min);
   for (std::size_t b = 0; b < bond_count; ++b)
-    if (forces.state[b] == detail::BondForceArrays::kExact) [[unlikely]]
+    if (forces.state[b] == detail::BondForceArrays::kFlagged) [[unlikely]]
       any_broken |= bond_force_exact<kMask>(b, min_delta);
   parallel((n + detail::kParticleBlock - 1) / detail::kParticleBlock, [&](std::size_t block) {
     const std::size_t begin = block * detail::kParticleBlock;

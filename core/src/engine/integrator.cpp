@@ -99,7 +99,7 @@ void System::step() {
     wall_travel_ += std::max(std::abs(wall_v_bottom_), std::abs(wall_v_top_)) * dt;
     impose_wall_motion();
   }
-  after_drift();
+  find_new_contacts();
 
   compute_forces();
   if (drag)

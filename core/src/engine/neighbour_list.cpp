@@ -155,4 +155,13 @@ void System::maybe_rebuild() {
   if (travel_ + wall_travel_ > 0.5 * params_.skin) rebuild_neighbours();
 }
 
+// After the particles moved (a step, a FIRE iteration, a rigid jump): the neighbour list rebuilt
+// if some particle may have moved skin/2, the touching pairs bonded, the particles that reached a
+// wall stuck to it.
+void System::find_new_contacts() {
+  maybe_rebuild();
+  if (params_.effects & kBondCreation) detect_contacts();
+  if (walls_active_) attach_to_walls();
+}
+
 }  // namespace gel

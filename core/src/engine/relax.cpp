@@ -57,21 +57,15 @@ void System::affine_move_walls(double new_bottom, double new_top) {
   wall_v_bottom_ = wall_v_top_ = 0.0;
   impose_wall_motion();
   travel_ += largest;
-  after_drift();
+  find_new_contacts();
   compute_forces();
   // The move is instantaneous: its work is the change of stored energy plus what the
   // thresholds it crossed released (they trip in the force evaluation above).
   ledger_.wall_work += stored_energy() - stored_before + (ledger_.dissipated - dissipated_before);
 }
 
-void System::after_drift() {
-  maybe_rebuild();
-  if (params_.effects & kBondCreation) detect_contacts();
-  if (walls_active_) attach_to_walls();
-}
-
 void System::update_contacts() {
-  after_drift();
+  find_new_contacts();
   compute_forces();
 }
 
@@ -209,7 +203,7 @@ bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t 
                                                   torque_.data());
     if (walls_active_) impose_wall_motion();
     travel_ += std::sqrt(largest_sq);
-    after_drift();
+    find_new_contacts();
     compute_forces();
     ++state.iterations;
     ++step_count_;
