@@ -62,6 +62,10 @@ VARIANTS = {
     # The walls at the bond set's reference speed: the preset for bond 1, and the bond-2 preset
     # until 2026-12-03 (now 4x for bond 2, whose 8-seed ensemble at 4x agrees with "paper").
     "quasistatic-walls1x": {"fidelity": "quasistatic", "wall_factor": 1},
+    # Slower than the paper's walls (the published-comparison issue: is the paper's speed the
+    # slow-compression limit it claims?): half and a quarter of the bond set's reference speed.
+    "quasistatic-walls0.5x": {"fidelity": "quasistatic", "wall_factor": 0.5},
+    "quasistatic-walls0.25x": {"fidelity": "quasistatic", "wall_factor": 0.25},
     # Paper walls until a relaxed row spans, then affine strain steps each relaxed by FIRE.
     "quasistatic-walls-then-affine": {"fidelity": "quasistatic", "quasistatic_approach": "walls-then-affine"},
     # The preset as it was until 2026-12-03: walls as in "default" (adaptive up to x10, and the
@@ -83,6 +87,9 @@ VARIANTS = {
     # The preset until 2026-12-07: every walk at the preset's dt. Since then the preset's walls
     # walk at up to 4x dt while they carry less than 1e-2 F0/a^2 (docs/quasistatic.md "Walk step").
     "quasistatic-walk-dt1": {"fidelity": "quasistatic", "walk_dt_factor": 1},
+    # The next candidate measured (not the preset): a longer walk step (6x, within the cap) up to
+    # a higher stress (3e-2 F0/a^2: bond 1 to phi ~ 0.42).
+    "quasistatic-walkdt6-below3e-2": {"fidelity": "quasistatic", "walk_dt_factor": 6, "walk_dt_stress": 3e-2},
 }
 # Variant keys copied as they are into the scene's compression message.
 COMPRESSION_FIELDS = ("adaptive_wall_max_factor", "approach_shortcut", "adaptive_wall_drag_fraction", "m_exam",
