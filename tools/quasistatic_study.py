@@ -144,7 +144,9 @@ def run_one(gelsim, work, gel, fidelity, seed, committed=None):
     with open(scene_path, "w") as f:
         json.dump(scene, f, indent=1)
     command = [gelsim, "compress", "--no-snapshots"]
-    command += ["--resume", out_dir] if resume else ["--scene", scene_path, "--out", out_dir]
+    # A fresh run replaces what an earlier one (another scene, an unreadable checkpoint) left;
+    # gelsim keeps scene.json, gelsim.stderr and cpu_seconds.json, which it did not write.
+    command += ["--resume", out_dir] if resume else ["--scene", scene_path, "--out", out_dir, "--overwrite"]
     # CPU seconds of this gelsim (its own rusage, not the pool's), summed over resumptions: on a
     # shared machine the wall time of a run says more about the neighbours than about the run.
     stderr_path = os.path.join(out_dir, "gelsim.stderr")

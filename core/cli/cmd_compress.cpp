@@ -121,7 +121,6 @@ gel::v1::Scene build_scene(const CompressArgs& args) {
   gel::v1::Scene scene;
   if (!args.scene_file.empty()) {
     const std::string text = gel::read_file(args.scene_file);
-    gel::require_json_message("scene", text, *gel::v1::Scene::descriptor());
     scene = gel::scene_from_json(text);
   }
   if (!args.preset.empty()) scene.set_preset(args.preset);

@@ -387,6 +387,9 @@ void require_plain_scene_json(const std::string& json) {
 
 gel::v1::Scene scene_from_json(const std::string& json) {
   require_plain_scene_json(json);
+  // Every caller (a --scene file, a stored curve's parameters, an ensemble or study manifest)
+  // gets a mistake in the product's words, naming the field, before protobuf's parser sees it.
+  require_json_message("scene", json, *gel::v1::Scene::descriptor());
   gel::v1::Scene scene;
   google::protobuf::util::JsonParseOptions options;
   options.ignore_unknown_fields = false;

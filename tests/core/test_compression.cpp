@@ -261,7 +261,8 @@ TEST(CompressionScene, InvalidFieldsAreRejectedByName) {
   });
   // phi_max below phi_1 is only known once the gel exists.
   expect_invalid("compression.phi_max", [&] { run_compression(with([](auto& c) { c.set_phi_max(0.3); }), RunOptions{}); });
-  expect_invalid("scene", [] { scene_from_json("{\"compression\": {\"m_exam\": \"many\"}}"); });
+  // A mistake in a scene is named down to its field, in the product's words.
+  expect_invalid("scene.compression.m_exam", [] { scene_from_json("{\"compression\": {\"m_exam\": \"many\"}}"); });
   expect_invalid("out_dir", [] {
     RunOptions options;
     options.out_dir = temp_dir("no_checkpoint");
