@@ -18,6 +18,7 @@
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
+#include "test_scenes.hpp"
 
 namespace gel {
 namespace {
@@ -33,21 +34,10 @@ std::string temp_dir(const std::string& name) {
   return dir.string();
 }
 
-// 96 particles (12 flocs of 8) in 24 x 48, three targets up to phi = 0.5, fast fidelity.
+// The tiny scene at the fast fidelity, tested every 200 steps.
 gel::v1::Scene tiny_scene() {
-  gel::v1::Scene scene;
-  scene.mutable_bond()->set_preset("bond1");
-  gel::v1::Generator* g = scene.mutable_generator();
-  g->set_lx(24);
-  g->set_ly(48);
-  g->set_n_floc(8);
-  g->set_n_clusters(12);
-  g->set_seed(3);
-  gel::v1::Compression* c = scene.mutable_compression();
-  c->set_fidelity("fast");
-  c->set_steps(3);
-  c->set_phi_max(0.5);
-  c->set_m_exam(200);
+  gel::v1::Scene scene = tiny_compression_scene("fast");
+  scene.mutable_compression()->set_m_exam(200);
   return scene;
 }
 

@@ -5,6 +5,7 @@
 #include "gel/configuration.hpp"
 #include "gel/system.hpp"
 #include "gel/units.hpp"
+#include "gel/v1/scene.pb.h"
 
 namespace gel {
 
@@ -61,6 +62,24 @@ inline constexpr unsigned kSprings = kNormalSpring | kOverlapRepulsion | kSlidin
 inline double pair_gap(const System& system) {
   const double dx = system.x()[1] - system.x()[0], dy = system.y()[1] - system.y()[0];
   return std::sqrt(dx * dx + dy * dy) - kDiameter;
+}
+
+// 96 particles (12 flocs of 8) in 24 x 48, bond 1, three targets up to phi = 0.5, at the given
+// fidelity: a whole compression in well under a second, also under the sanitizers.
+inline gel::v1::Scene tiny_compression_scene(const char* fidelity) {
+  gel::v1::Scene scene;
+  scene.mutable_bond()->set_preset("bond1");
+  gel::v1::Generator* g = scene.mutable_generator();
+  g->set_lx(24);
+  g->set_ly(48);
+  g->set_n_floc(8);
+  g->set_n_clusters(12);
+  g->set_seed(3);
+  gel::v1::Compression* c = scene.mutable_compression();
+  c->set_fidelity(fidelity);
+  c->set_steps(3);
+  c->set_phi_max(0.5);
+  return scene;
 }
 
 }  // namespace gel

@@ -18,22 +18,10 @@
 namespace gel {
 namespace {
 
-// 96 particles (12 flocs of 8) in 24 x 48, three targets up to phi = 0.5, quasi-static.
 gel::v1::Scene tiny_walk_scene(double walk_dt_factor, double walk_dt_stress) {
-  gel::v1::Scene scene;
-  scene.mutable_bond()->set_preset("bond1");
-  gel::v1::Generator* g = scene.mutable_generator();
-  g->set_lx(24);
-  g->set_ly(48);
-  g->set_n_floc(8);
-  g->set_n_clusters(12);
-  g->set_seed(3);
-  gel::v1::Compression* c = scene.mutable_compression();
-  c->set_fidelity("quasistatic");
-  c->set_steps(3);
-  c->set_phi_max(0.5);
-  c->set_walk_dt_factor(walk_dt_factor);
-  if (walk_dt_stress > 0) c->set_walk_dt_stress(walk_dt_stress);
+  gel::v1::Scene scene = tiny_compression_scene("quasistatic");
+  scene.mutable_compression()->set_walk_dt_factor(walk_dt_factor);
+  if (walk_dt_stress > 0) scene.mutable_compression()->set_walk_dt_stress(walk_dt_stress);
   return scene;
 }
 
