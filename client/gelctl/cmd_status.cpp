@@ -1,4 +1,5 @@
-// gelctl status (alias get): one job's state, sizes, times, progress and labels.
+// gelctl status (alias get): one job's state, sizes, times, progress, labels and the version
+// string of the geld that ran it.
 #include <iostream>
 #include <memory>
 #include <string>
@@ -32,6 +33,7 @@ void print_job(const gel::v1::Job& job) {
               << "\n";
   }
   for (const auto& [key, value] : job.labels()) std::cout << "  label " << key << "=" << value << "\n";
+  if (!job.program_version().empty()) std::cout << "  program " << job.program_version() << "\n";
 }
 
 int run_status(gelctl::Client& client, const StatusArgs& args) {

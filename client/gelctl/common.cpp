@@ -289,6 +289,7 @@ json job_json(const gel::v1::Job& job) {
   j["member"] = job.member();
   j["rows"] = job.rows();
   j["out_dir"] = job.out_dir();
+  j["program_version"] = job.program_version();
   if (job.has_progress()) {
     const auto& progress = job.progress();
     j["progress"] = {{"k", progress.k()},

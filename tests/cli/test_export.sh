@@ -31,7 +31,7 @@ grep -q "pvd" "$WORK/err" || fail "the .vtu refusal does not point at .pvd: $(ca
 if "$GELSIM" export "$WORK/gel.json" --out "$WORK/gel.pdb" > /dev/null 2> "$WORK/err"; then fail "an unknown ending was accepted"; fi
 if "$GELSIM" export "$WORK/nothing.json" --out "$WORK/x.xyz" > /dev/null 2> "$WORK/err"; then fail "a missing input was accepted"; fi
 
-"$PYTHON" - "$WORK" <<'PY' || fail "the readers disagree with the source"
+GEL_VERSION_STRING="$("$GELSIM" --version)" "$PYTHON" - "$WORK" <<'PY' || fail "the readers disagree with the source"
 import json, math, os, sys
 import numpy as np
 import gsd.hoomd
@@ -53,6 +53,12 @@ assert np.array_equal(atoms.positions[:, 0], x) and np.array_equal(atoms.positio
 assert np.array_equal(atoms.arrays["theta"], theta), "xyz theta"
 assert np.allclose(atoms.cell.lengths()[:2], [lx, ly]), atoms.cell
 assert atoms.info["bonds"] == len(bonds), atoms.info
+# The version string, as in every exported file (README): XYZ in the comment line, VTU and
+# the PVD collection in an XML comment, GSD in its header.
+version = os.environ["GEL_VERSION_STRING"]
+assert atoms.info["program"] == "gelsim " + version, atoms.info
+for name in ("gel.vtu", os.path.join("frames", "run.pvd"), os.path.join("frames", "run_00000.vtu")):
+    assert '<!-- program="gelsim %s" -->' % version in open(os.path.join(work, name)).read(), name
 
 # gsd.hoomd: a box centred on the origin, float positions, quaternions about z, the bonds.
 frame = gsd.hoomd.open(os.path.join(work, "gel.gsd"), "rb")[0]

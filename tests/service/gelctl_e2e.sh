@@ -61,12 +61,14 @@ grep -qxF "$job: succeeded" "$work/watch.txt" || fail "watch did not show succes
 [ "$(stat -c %a "$data/geld.sqlite")" = 600 ] || fail "geld.sqlite has mode $(stat -c %a "$data/geld.sqlite"), expected 600"
 [ "$(stat -c %a "$data")" = 700 ] || fail "the data dir has mode $(stat -c %a "$data"), expected 700"
 ctl status "$job" --json >"$work/status.json"
-$py - "$work/status.json" <<'PY' || fail "status --json"
+$py - "$work/status.json" "$("$geld" --version)" <<'PY' || fail "status --json"
 import json, sys
 job = json.load(open(sys.argv[1]))
 assert job["state"] == "succeeded", job["state"]
 assert job["rows"] == 4 and job["labels"] == {"suite": "e2e"} and job["name"] == "e2e"
+assert job["program_version"] == sys.argv[2], (job.get("program_version"), sys.argv[2])
 PY
+ctl status "$job" | grep -qxF "  program $("$geld" --version)" || fail "status does not show the program version"
 ctl curve "$job" --json >"$work/curve.json"
 $py - "$work/curve.json" <<'PY' || fail "curve --json"
 import json, sys

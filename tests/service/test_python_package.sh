@@ -70,7 +70,7 @@ dead_port=$($py -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); p
 
 # The source package and the build tree's stubs, as a researcher uses them from a checkout.
 PYTHONPATH=$source_dir/client/python GEL_PYTHON_STUBS=$stubs GELD_SERVER=$server GELD_TOKEN_FILE=$work/token \
-  $py - "$gelctl" "$data" "$work" "$dead_port" <<'PY' || fail "python package checks"
+  GELD_VERSION="$("$geld" --version)" $py - "$gelctl" "$data" "$work" "$dead_port" <<'PY' || fail "python package checks"
 import json
 import math
 import os
@@ -159,6 +159,7 @@ assert list(curve["k"]) == [0, 1, 2, 3] * 2
 
 # One vocabulary: the engine's own curve.csv of member 0, same header and the same numbers.
 job = client.job(small)
+assert job["program_version"] == os.environ["GELD_VERSION"], (job.get("program_version"), os.environ["GELD_VERSION"])
 engine_csv = pandas.read_csv(os.path.join(data_dir, job["out_dir"], "m0-seed1", "curve.csv"),
                              float_precision="round_trip")
 assert list(engine_csv.columns) == list(gel.CURVE_COLUMNS[2:]), list(engine_csv.columns)

@@ -96,7 +96,7 @@ def job_to_dict(job):
             "seeds": list(job.seeds), "particles": job.particles, "bond_preset": job.bond_preset,
             "created_unix_ms": job.created_unix_ms, "started_unix_ms": job.started_unix_ms,
             "finished_unix_ms": job.finished_unix_ms, "error": job.error, "member": job.member,
-            "rows": job.rows, "out_dir": job.out_dir,
+            "rows": job.rows, "out_dir": job.out_dir, "program_version": job.program_version,
             "progress": progress_to_dict(job.progress) if job.HasField("progress") else None,
             "scene": message_to_dict(job.scene)}
 

@@ -5,7 +5,7 @@
 // see disks) and a line cell per bond. A bond that crosses the periodic x boundary would draw
 // across the whole box, so its line ends at an image of the far particle instead: an extra
 // point with ghost = 1 that repeats the data of the particle it images ("particle" holds the
-// index). Point arrays: radius, theta, orientation (unit vector of the body x axis), wall
+// index). The version string is an XML comment after the declaration. Point arrays: radius, theta, orientation (unit vector of the body x axis), wall
 // (0 free, 1 bottom, 2 top), particle, ghost. Cell array: bond (-1 for particle cells).
 #include <cmath>
 #include <filesystem>
@@ -14,11 +14,20 @@
 #include "file_output.hpp"
 #include "gel/export.hpp"
 #include "gel/units.hpp"
+#include "gel_version.hpp"
 
 namespace gel::exporting {
 namespace {
 
 constexpr int kVtkVertex = 1, kVtkLine = 3;
+
+// The version string, as an XML comment after the declaration: readers skip it, and VTK's
+// ASCII string arrays are awkward to read back. "--" may not appear in a comment.
+std::string version_comment() {
+  std::string version = "gelsim " + program_version();
+  for (std::size_t at = version.find("--"); at != std::string::npos; at = version.find("--")) version.replace(at, 2, "- -");
+  return "<!-- program=\"" + version + "\" -->\n";
+}
 
 std::string vtu_document(const Frame& frame) {
   const Configuration& c = frame.configuration;
@@ -44,7 +53,7 @@ std::string vtu_document(const Frame& frame) {
   }
   const std::size_t points = px.size(), cells = n + c.bonds.size();
 
-  std::string xml = "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n";
+  std::string xml = "<?xml version=\"1.0\"?>\n" + version_comment() + "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n";
   xml += "<FieldData>\n";
   const auto field = [&](const char* name, const char* type, const std::string& value) {
     xml += fmt::format("<DataArray type=\"{}\" Name=\"{}\" NumberOfTuples=\"1\" format=\"ascii\">{}</DataArray>\n", type, name, value);
@@ -114,7 +123,7 @@ class VtuWriter final : public FrameWriter {
     write_file_atomically((pvd.parent_path() / name).string(), vtu_document(frame));
     frames_.push_back({frame.step, name});
     written_.push_back((pvd.parent_path() / name).string());
-    std::string xml = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n";
+    std::string xml = "<?xml version=\"1.0\"?>\n" + version_comment() + "<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n";
     for (const auto& [step, file] : frames_) xml += fmt::format("<DataSet timestep=\"{}\" part=\"0\" file=\"{}\"/>\n", step, file);
     xml += "</Collection>\n</VTKFile>\n";
     write_file_atomically(path_, xml);
