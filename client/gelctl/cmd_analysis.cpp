@@ -33,7 +33,10 @@ void print_summary(const nlohmann::json& a) {
     std::cout << "power law: none (" << a.value("power_law_error", std::string("no reason given")) << ")\n";
   }
   const auto& gel_point = a.at("gel_point");
-  if (gel_point.is_object()) {
+  if (gel_point.is_object() && gel_point.value("at_bound", false)) {
+    std::cout << "gel point: not determined (the fit put phi_g at its bound, " << number_or_dash(gel_point.at("phi_g"))
+              << ": the data fix no gel point; lambda' = " << number_or_dash(gel_point.at("exponent")) << ")\n";
+  } else if (gel_point.is_object()) {
     std::cout << "gel point P = C (phi - phi_g)^lambda': phi_g = " << number_or_dash(gel_point.at("phi_g")) << " +- "
               << number_or_dash(gel_point.at("phi_g_stderr")) << ", lambda' = " << number_or_dash(gel_point.at("exponent"))
               << " +- " << number_or_dash(gel_point.at("exponent_stderr")) << "\n";

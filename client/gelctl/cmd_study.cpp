@@ -222,7 +222,9 @@ void print_analysis(const json& analysis) {
     const json& gel_point = ensemble.at("gel_point");
     if (gel_point.contains("phi_g"))
       std::cout << "  gel point: phi_g " << estimate_text(gel_point.at("phi_g")) << ", lambda' "
-                << estimate_text(gel_point.at("exponent")) << "\n";
+                << estimate_text(gel_point.at("exponent"))
+                << (gel_point.value("at_bound", false) ? " (the fit on all seeds put phi_g at its bound: the data fix no gel point)" : "")
+                << "\n";
     if (ensemble.contains("xi_power_law") && ensemble.at("xi_power_law").is_object() &&
         ensemble.at("xi_power_law").contains("exponent"))
       std::cout << "  xi^(0.5) ~ phi^" << estimate_text(ensemble.at("xi_power_law").at("exponent")) << "\n";

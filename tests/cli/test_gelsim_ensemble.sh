@@ -39,6 +39,14 @@ assert last["members"] == 2 and abs(last["P_mean"] - sum(ps) / 2) <= 1e-15 * abs
 assert d["ensemble_rule"].startswith("mean and sample standard deviation (n - 1; 0 for n = 1) over the members that reached row k"), d
 PY
 
+# The ensemble's pictures say what their error bars are, in the axis title (the figure title
+# is only in the kept script).
+"$GELSIM" plot "$WORK/ens/seed_3" "$WORK/ens/seed_4" --out "$WORK/ens_plots" > /dev/null 2>&1 || fail "plot of the ensemble"
+for figure in pressure contact_number energy_increments rupture_rates profiles; do
+  grep -q '^set ylabel .*(mean ± s.d. over n = 2 runs)' "$WORK/ens_plots/gnuplot/$figure.gp" \
+    || fail "$figure: the error bars are not named: $(grep '^set ylabel' "$WORK/ens_plots/gnuplot/$figure.gp")"
+done
+
 # 2. Stopped by SIGTERM once every member has a row, resumed: the same rows as uninterrupted.
 LONG=(--preset quick --fidelity fast --steps 5 --phi-max 0.4 --no-snapshots --checkpoint-seconds 0.2)
 "$GELSIM" compress "${LONG[@]}" --seeds 5-6 --jobs 2 --out "$WORK/stop" --progress-file "$WORK/stop.jsonl" 2> "$WORK/stop.log" &

@@ -300,6 +300,10 @@ TEST(Fits, GelPointFitRecoversPhiGAndExponent) {
   EXPECT_LT(at_zero.phi_g, 1e-6);
   EXPECT_TRUE(at_zero.phi_g_at_bound);
   EXPECT_NEAR(at_zero.exponent, 3.0, 1e-4);
+  // One JSON name for the flag, the study analysis's (gel_point.at_bound).
+  EXPECT_EQ(to_json(at_zero).at("at_bound"), true);
+  EXPECT_FALSE(to_json(at_zero).contains("phi_g_at_bound"));
+  EXPECT_EQ(to_json(exact).at("at_bound"), false);
   std::mt19937_64 rng(3);
   std::normal_distribution<double> noise(0, 0.02);
   std::vector<double> noisy = p;

@@ -174,7 +174,7 @@ nlohmann::json to_json(const GelPointFit& f) {
           {"log_prefactor_stderr", number(f.log_prefactor_stderr)}, {"phi_g_stderr", number(f.phi_g_stderr)},
           {"exponent_stderr", number(f.exponent_stderr)}, {"phi_min", f.x_min}, {"phi_max", f.x_max},
           {"requested_phi_min", f.requested_min}, {"requested_phi_max", f.requested_max},
-          {"points", f.points}, {"dropped_nonpositive", f.dropped}, {"iterations", f.iterations}, {"converged", f.converged}, {"phi_g_at_bound", f.phi_g_at_bound},
+          {"points", f.points}, {"dropped_nonpositive", f.dropped}, {"iterations", f.iterations}, {"converged", f.converged}, {"at_bound", f.phi_g_at_bound},
           {"rms_log_residual", number(f.rms_log_residual)}};
 }
 

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -61,16 +62,20 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
   fs::create_directories(out_dir);
   std::vector<std::string> written;
   auto output = [&](const std::string& name) { return (fs::path(out_dir) / (name + ext)).string(); };
-  auto render = [&](PlotFigure& figure, const std::string& name) {
-    figure.width = options.plot_width;
-    figure.height = options.plot_height;
-    render_plot(figure, output(name));
-    written.push_back(output(name));
-  };
   const CurveAnalysis& ca = run.curve;
   const bool ensemble = ca.ensemble.members > 1;
   // Only in the kept scripts' first line: the caption is where a paper says it.
   const std::string members = ensemble ? format(" (mean and standard deviation of %.0f runs)", ca.ensemble.members) : std::string();
+  auto render = [&](PlotFigure& figure, const std::string& name) {
+    figure.width = options.plot_width;
+    figure.height = options.plot_height;
+    // Error bars say what they are where a reader looks, the axis title (the figure title
+    // lives only in the kept script).
+    const bool error_bars = std::any_of(figure.series.begin(), figure.series.end(), [](const PlotSeries& s) { return !s.y_error.empty(); });
+    if (error_bars) figure.y_label += format("   (mean ± s.d. over n = %.0f runs)", ca.ensemble.members);
+    render_plot(figure, output(name));
+    written.push_back(output(name));
+  };
   const auto& rows = ca.ensemble.rows;
   const std::vector<double>& phi = rows.at("phi").mean;
   const std::string pressure = italic("P") + "_y";
@@ -91,11 +96,13 @@ std::vector<std::string> render_run_pictures(const RunAnalysis& run, const std::
       }
       f.series.push_back(fit);
     }
-    if (ca.gel_point) {
+    // A gel-point fit with φ_g on its bound fixes no gel point: drawn, it would be keyed
+    // "(φ − 0.000)^λ" and claim one. The axis title says so instead.
+    if (ca.gel_point && ca.gel_point->phi_g_at_bound) f.x_label += "   (gel-point fit: " + kPhi + "_g at its bound, not drawn)";
+    if (ca.gel_point && !ca.gel_point->phi_g_at_bound) {
       const auto& g = *ca.gel_point;
       // φ_g written as its value, which keeps the key narrow enough to stay beside the data.
-      PlotSeries fit{pressure + " ∝ (" + kPhi + " − " + format("%.3f", g.phi_g) + ")" + exponent_text(g.exponent, g.exponent_stderr) +
-                         (g.phi_g_at_bound ? ", " + kPhi + "_g at its bound" : ""),
+      PlotSeries fit{pressure + " ∝ (" + kPhi + " − " + format("%.3f", g.phi_g) + ")" + exponent_text(g.exponent, g.exponent_stderr),
                      {}, {}, {}, "lines", true};
       for (int i = 0; i <= 50; ++i) {
         const double x = g.x_min * std::pow(g.x_max / g.x_min, i / 50.0);
