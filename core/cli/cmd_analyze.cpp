@@ -1,5 +1,5 @@
 // gelsim analyze / analyze-run / snapshot: structure analyses of configurations and compression
-// runs (README "Analysis and pictures"). "analyse" spellings are accepted as aliases.
+// runs (docs/analysis.md). "analyse" spellings are accepted as aliases.
 //   gelsim analyze CONFIG... [--json] [--pixel 0.25] [--fit-range 2,10] [--window 0.1]
 //   gelsim analyze-run DIR... [--json] [--fit-range PHIMIN,PHIMAX] [--no-structure] [--include-unequilibrated]
 //   gelsim snapshot CONFIG --out file.png|file.svg|file.pdf [--xi] [--size 1200] [--no-bonds]

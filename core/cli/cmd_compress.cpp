@@ -1,4 +1,4 @@
-// gelsim compress: stepwise uniaxial compression of a fractal gel (README "Compression").
+// gelsim compress: stepwise uniaxial compression of a fractal gel (docs/compression.md).
 //   gelsim compress --preset quick
 //   gelsim compress --preset paper-bond1 --seed 1 --out runs/b1 --progress-file runs/b1/progress.jsonl
 //   gelsim compress --resume runs/b1

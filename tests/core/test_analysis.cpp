@@ -1,4 +1,4 @@
-// Structure analyses, fits, regimes and ensembles (README "Analysis and pictures"), each checked
+// Structure analyses, fits, regimes and ensembles (docs/analysis.md), each checked
 // against a result known in closed form: the lens area of two disks, a pixel-exact lattice, the
 // two-point function of a Boolean model of disks, uncorrelated pixels, synthetic power laws,
 // planted regime boundaries.

@@ -297,7 +297,7 @@ TEST(Compression, QuickPresetRunsToTheEnd) {
     double mean = 0;
     for (const double phi : row.phi_profile()) mean += phi / row.phi_profile_size();
     EXPECT_NEAR(mean, row.phi(), 1e-9);
-    // Energy balance (README "Energy"): what the walls did, plus the energy of bonds formed at
+    // Energy balance (docs/engine.md "Energy"): what the walls did, plus the energy of bonds formed at
     // overlap, is stored, released by ruptures, taken by drag, kinetic or absorbed on sticking.
     // Tolerance 1% of the wall work: the trapezoidal quadrature of wall work and drag is O(dt^2).
     const double supplied = row.wall_work() + row.bond_creation_energy();

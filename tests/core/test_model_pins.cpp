@@ -95,7 +95,7 @@ TEST(ModelPins, AResetPastBothTangentialThresholdsCountsOnceUnderTheLargerExcess
   // phi = -asin(sin(alpha - beta)) = beta - alpha.
   // Both configurations below exceed both thresholds (|F_T| > F_Sc = 1 and |M_R| > M_Rc = 1).
   //
-  // The rule the code follows (System::handle_threshold; README "Bonds"): a reset is ONE event,
+  // The rule the code follows (System::handle_threshold; docs/engine.md "Bonds"): a reset is ONE event,
   // counted under the cause whose threshold is exceeded by the larger factor, |F_T|/F_Sc against
   // |M_R|/M_Rc (sliding on a tie). Both stored tangential energies are released either way.
   // (MODEL.md only says "every event is counted by its cause"; counting it once under each
@@ -457,7 +457,7 @@ TEST(ModelPins, PresetsDragAndTimeStepRuleMatchTheModel) {
     EXPECT_DOUBLE_EQ(params.drag_rotation(), 8.0 * kPi * model_eta(model.k_rolling) * std::pow(kModelRadius, 3));
   }
 
-  // Time step (MODEL leaves it to the integrator; README "Integrator and time step" fixes the
+  // Time step (MODEL leaves it to the integrator; docs/engine.md "Integrator and time step" fixes the
   // rule): dt = 0.025 T_min, T_min = 2 pi / w_max, w_max^2 = 2 max(k_N/m, k_S/m, (k_S a^2 +
   // k_R a^2)/I). Bond 1: 2 max(20, 20, 40/0.4) = 200, T_min = 0.4443 t0, dt = 0.01111 t0; bond 2:
   // 2 max(100, 100, 120/0.4) = 600, T_min = 0.2565 t0, dt = 0.006413 t0. (w_max bounds the

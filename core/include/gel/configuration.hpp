@@ -3,7 +3,7 @@
 // compression started, the walls. It is what the generator writes, what the engine starts
 // from, and what a compression snapshot holds.
 //
-// File format (documented in README "Configuration files"): the gel.v1.Configuration message
+// File format (documented in docs/gelsim.md "Configuration files"): the gel.v1.Configuration message
 // of proto/gel/v1/scene.proto, written either as JSON through Protocol Buffers' JSON mapping
 // (files ending in .json; doubles print in round-trip form, so reading back is bit exact) or
 // as binary protobuf (any other ending, e.g. .pb).

@@ -1,5 +1,5 @@
 #pragma once
-// Compression curves on disk: DIR/curve.json and DIR/curve.csv (README "Outputs").
+// Compression curves on disk: DIR/curve.json and DIR/curve.csv (docs/gelsim.md "Data out").
 //
 // curve.json: {"program_version", "particles", "parameters": <resolved scene, proto JSON>,
 //              "rows": [{"k", "phi", "target_phi", "P", "P_top", "P_bot", "contact_number",

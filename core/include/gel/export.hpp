@@ -1,5 +1,5 @@
 #pragma once
-// Configurations out to the formats other programs read (README "Data out"): extended XYZ
+// Configurations out to the formats other programs read (docs/gelsim.md "Data out"): extended XYZ
 // (OVITO, ASE), GSD (HOOMD-blue's format; OVITO, freud, gsd.hoomd) and VTK XML unstructured
 // grids (ParaView, VisIt). One writer per format, each in its own file under src/export/; all
 // take the same frames so a run exports the same way whatever the target.

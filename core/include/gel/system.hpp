@@ -42,7 +42,7 @@ struct SimParams {
   double drag_rotation() const;
 };
 
-// The shortest natural period of one bond between two free particles (see README "Time
+// The shortest natural period of one bond between two free particles (see docs/engine.md "Integrator and time
 // step"): omega_max^2 = 2 max(k_N/m, k_S/m, (k_S + k_R) a^2 / I) with k_R in F0 a.
 double shortest_period(const BondLaw& bond);
 // The same with another moment of inertia (FIRE's own, docs/quasistatic.md).

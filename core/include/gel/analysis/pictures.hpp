@@ -1,5 +1,5 @@
 #pragma once
-// Pictures (README "Analysis and pictures"): snapshots of configurations drawn with cairo, and
+// Pictures (docs/analysis.md): snapshots of configurations drawn with cairo, and
 // plots drawn by gnuplot, as PNG, SVG or PDF chosen by the file name's ending. They are meant
 // to go into a paper as they are: no title inside (the caption says what a figure shows),
 // typeset labels, keys off the data, and vector output (SVG, PDF) besides PNG.

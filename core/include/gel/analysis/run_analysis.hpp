@@ -1,7 +1,6 @@
 #pragma once
 // Analysis of compression runs: one output directory (curve.json + snapshots/), or several
-// directories of the same protocol on different seeds as an ensemble (README "Analysis and
-// pictures"). What `gelsim analyze-run` prints and `gelsim plot` draws.
+// directories of the same protocol on different seeds as an ensemble (docs/analysis.md). What `gelsim analyze-run` prints and `gelsim plot` draws.
 //
 // The curve-level analyses work on the ensemble-mean curve (for one run: the run itself):
 // phi, P and the cumulative energies and rupture counts averaged per row k. On it:
