@@ -4,12 +4,11 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "compression_internal.hpp"
 #include "gel/compression.hpp"
+#include "gel/configuration.hpp"
 #include "gel/errors.hpp"
 #include "gel/system.hpp"
 #include "gel/v1/checkpoint.pb.h"
@@ -85,13 +84,6 @@ TEST(WalkStep, FastestContactFrequencyIsGershgorinsBound) {
   // Stretched, only k_N.
   EXPECT_NEAR(System(pair_along_x(0.01), params).fastest_contact_frequency(), std::sqrt((1 + std::sqrt(2.0)) * k_n / kMass),
               1e-12);
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  return bytes.str();
 }
 
 TEST(WalkStep, TheWalkTakesLongerStepsForTheSameTimeAndEveryRelaxationTheScenesStep) {
