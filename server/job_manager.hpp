@@ -1,7 +1,11 @@
 #pragma once
 // The daemon's core without any network: a bounded job queue, a pool of worker threads, the
 // SQLite store and the per-job update channels that watchers follow. The gRPC service is a
-// thin layer over this class, and tests drive it directly.
+// thin layer over this class, and tests drive it directly. Its code, by concept:
+//   job_manager.cpp     life (start, shutdown) and the per-job state and updates watchers follow
+//   job_submission.cpp  submit and validate: checks, budgets, the run cache, admission
+//   job_scheduling.cpp  the workers: claiming members, running one in steps, ends, cancel
+//   job_queries.cpp     get, list, curves, analysis, QueryCurves, logs and watch
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -10,78 +14,19 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <stdexcept>
 #include <string>
 #include <thread>
-#include <tuple>
 #include <vector>
 
-#include <grpcpp/support/status.h>
-
 #include "executor.hpp"
-#include "gel/resources.hpp"
 #include "gel/v1/service.pb.h"
+#include "gelcore_adapter.hpp"
+#include "limits.hpp"
+#include "requests.hpp"
 #include "store.hpp"
 #include "store_lock.hpp"
 
 namespace geld {
-
-// An error with the gRPC status code the client gets.
-class ApiError : public std::runtime_error {
- public:
-  ApiError(grpc::StatusCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
-  grpc::StatusCode code() const { return code_; }
-
- private:
-  grpc::StatusCode code_;
-};
-
-struct Limits {
-  std::size_t max_queue = 1000;            // queued jobs
-  std::int64_t max_particles = 2'000'000;  // per ensemble member
-  int max_seeds = 1000;                    // ensemble members per job
-  int max_watchers = 256;                  // concurrent WatchJob streams, all jobs
-  int threads_per_member = 1;              // engine threads of a member whose scene leaves integration.threads 0
-  // Budgets on the resources a job's scene says it will need (gel/resources.hpp), checked at
-  // submission (docs/api.md "Budgets and bounds"):
-  std::int64_t max_member_memory = 4ll << 30;      // one member's state [bytes]
-  std::int64_t max_job_disk = 64ll << 30;          // all members' files [bytes]
-  double max_job_particle_steps = 1e14;            // all members: about 280 core-hours at 1e8/s
-  // What the members running at once may hold together, with geld itself [bytes]: a job is
-  // admitted only if the `workers` largest members of the admitted jobs fit. 0: half the
-  // machine's memory. Only where members run inside geld (the threads executor).
-  std::int64_t max_memory = 0;
-};
-
-// The scene side of jobs: validation, resolution and the curve's JSON shape. The compression
-// engine in geld (server/compression_engine.cpp); tests may inject their own.
-class Engine {
- public:
-  virtual ~Engine() = default;
-  struct Prepared {
-    gel::v1::Scene scene;  // resolved
-    std::int64_t particles = 0;
-    std::string bond_preset;
-    // The resolved scene flattened: (dotted name, text value, numeric value or NaN).
-    std::vector<std::tuple<std::string, std::string, double>> parameters;
-    std::string scene_json;
-    gel::ResourceEstimate estimate;  // one member's
-  };
-  // Validates and resolves a submission; throws ApiError (INVALID_ARGUMENT naming the field,
-  // RESOURCE_EXHAUSTED over the limits).
-  virtual Prepared prepare(const gel::v1::SubmitJobRequest& request, const Limits& limits) = 0;
-  // The scene with another seed, as JSON (for executors that hand it to a process).
-  virtual std::string scene_json(const gel::v1::Scene& scene) = 0;
-  // The curve as one JSON object with a "rows" list.
-  virtual std::string curve_json(const gel::v1::Curve& curve) = 0;
-  virtual std::string program_version() = 0;
-  // The curve analysis of one run or an ensemble (gelsim analyze-run's, as JSON text); throws
-  // gel::InvalidArgument when the curves cannot be analysed.
-  virtual std::string analysis_json(const std::vector<gel::v1::Curve>& curves, bool include_unequilibrated) = 0;
-};
-
-// The compression engine (gelcore).
-std::shared_ptr<Engine> make_compression_engine();
 
 struct ManagerOptions {
   std::string data_dir = "data";  // geld.sqlite and jobs/<id>/ live here
@@ -95,7 +40,7 @@ struct ManagerOptions {
 
 class JobManager {
  public:
-  JobManager(ManagerOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor);
+  JobManager(ManagerOptions options, std::shared_ptr<GelcoreAdapter> adapter, std::shared_ptr<Executor> executor);
   ~JobManager();  // shuts down (checkpointing running jobs) if still running
 
   // Recovers the store's queued and running jobs and starts the workers.
@@ -109,7 +54,7 @@ class JobManager {
   // (a key it has with another value is refused); a study's (adopt_metadata false) leaves the
   // job as it is: the study records the job it got.
   gel::v1::SubmitJobResponse submit(const gel::v1::SubmitJobRequest& request, bool adopt_metadata = true);
-  // Every check submit() makes (fields, limits, the engine's validation of the scene), without
+  // Every check submit() makes (fields, limits, gelcore's validation of the scene), without
   // storing anything: throws the ApiError submit() would.
   void validate(const gel::v1::SubmitJobRequest& request);
   std::string program_version();
@@ -158,9 +103,25 @@ class JobManager {
     int members = 0;
   };
 
-  Engine::Prepared validated(const gel::v1::SubmitJobRequest& request);
+  GelcoreAdapter::Prepared validated(const gel::v1::SubmitJobRequest& request);
   void worker_loop();
+  // The job at the queue's head and its next unclaimed member (-1: none left to claim); null
+  // when the workers are to stop.
+  std::shared_ptr<Live> claim_member(int& member);
+
+  // One member's run, in steps (run_member calls them in this order).
+  struct MemberOutcome {
+    enum Kind { kFinished, kStopped, kFailed, kNoSpace } kind = kStopped;
+    std::string error;
+  };
   void run_member(const std::shared_ptr<Live>& live, int member);
+  // The job as the member starts; the job turns RUNNING with its first member unless stopping.
+  gel::v1::Job begin_member(const std::shared_ptr<Live>& live, bool stopping);
+  RunContext member_context(const std::shared_ptr<Live>& live, const gel::v1::Job& job, int member);
+  MemberOutcome execute_member(const std::shared_ptr<Live>& live, const gel::v1::Job& job, int member);
+  bool record_outcome(const std::shared_ptr<Live>& live, int member, const MemberOutcome& outcome);  // last running?
+  void settle_member(const std::shared_ptr<Live>& live, int member, const MemberOutcome& outcome, bool last_running);
+
   void finish_if_done(const std::shared_ptr<Live>& live);
   void end_job(const std::shared_ptr<Live>& live, gel::v1::JobState state, const std::string& message);
   void publish(Live& live, gel::v1::JobUpdate update);
@@ -182,7 +143,7 @@ class JobManager {
   ManagerOptions options_;
   OwnerLock data_dir_lock_;  // data_dir/geld.lock, held while this manager may run jobs
   OwnerLock store_lock_;     // the store file, the same; declared before store_ to outlive it
-  std::shared_ptr<Engine> engine_;
+  std::shared_ptr<GelcoreAdapter> adapter_;
   std::shared_ptr<Executor> executor_;
   std::unique_ptr<Store> store_;
 
@@ -197,15 +158,5 @@ class JobManager {
   bool started_ = false;
   bool stopped_ = false;
 };
-
-std::int64_t now_ms();
-
-// A list call's page token (the seq of the last item of the previous page): 0 for none; an
-// ApiError INVALID_ARGUMENT naming `method` for anything else that is not a positive number.
-std::int64_t parse_page_token(const std::string& token, const std::string& method);
-
-// Job and study ids are short: a longer one is refused as such (INVALID_ARGUMENT naming
-// `field`), never looked up or echoed whole in an error.
-void require_id_size(const std::string& field, const std::string& id);
 
 }  // namespace geld

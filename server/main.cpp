@@ -339,7 +339,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<geld::Daemon> daemon;
   try {
     std::shared_ptr<geld::Executor> executor = geld::make_executor(executor_config);
-    daemon = std::make_unique<geld::Daemon>(options, geld::make_compression_engine(), executor);
+    daemon = std::make_unique<geld::Daemon>(options, geld::make_gelcore_adapter(), executor);
     spdlog::info("geld {}: data dir {}, executor {}", gel::program_version(), options.manager.data_dir, executor->name());
     daemon->start();
   } catch (const std::invalid_argument& e) {

@@ -263,9 +263,9 @@ bool is_loopback_address(const std::string& host_port) {
   return false;
 }
 
-Daemon::Daemon(DaemonOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor)
+Daemon::Daemon(DaemonOptions options, std::shared_ptr<GelcoreAdapter> adapter, std::shared_ptr<Executor> executor)
     : options_(std::move(options)) {
-  manager_ = std::make_unique<JobManager>(options_.manager, std::move(engine), std::move(executor));
+  manager_ = std::make_unique<JobManager>(options_.manager, std::move(adapter), std::move(executor));
   studies_ = std::make_unique<StudyManager>(*manager_);
 }
 

@@ -92,7 +92,7 @@ bool is_loopback_address(const std::string& host_port);
 
 class Daemon {
  public:
-  Daemon(DaemonOptions options, std::shared_ptr<Engine> engine, std::shared_ptr<Executor> executor);
+  Daemon(DaemonOptions options, std::shared_ptr<GelcoreAdapter> adapter, std::shared_ptr<Executor> executor);
   ~Daemon();
 
   // Opens the store, recovers jobs, starts the workers and the server. Throws on failure

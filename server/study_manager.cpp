@@ -17,11 +17,6 @@ namespace geld {
 namespace fs = std::filesystem;
 namespace {
 
-bool ended(gel::v1::JobState state) {
-  return state == gel::v1::JOB_STATE_SUCCEEDED || state == gel::v1::JOB_STATE_FAILED ||
-         state == gel::v1::JOB_STATE_CANCELLED;
-}
-
 ApiError invalid(const std::string& message) { return ApiError(grpc::StatusCode::INVALID_ARGUMENT, message); }
 
 // The job request of one ensemble: the study's labels plus study and ensemble.
@@ -87,7 +82,7 @@ gel::v1::SubmitStudyRequest StudyManager::expanded(const gel::v1::SubmitStudyReq
 }
 
 gel::v1::SubmitStudyResponse StudyManager::submit(const gel::v1::SubmitStudyRequest& request) {
-  if (jobs_.shutting_down()) throw ApiError(grpc::StatusCode::UNAVAILABLE, "geld is shutting down");
+  if (jobs_.shutting_down()) throw shutting_down_error();
   const gel::v1::SubmitStudyRequest full = expanded(request);
   // Every ensemble is checked before anything is stored: a bad one refuses the whole study.
   for (int e = 0; e < full.ensembles_size(); ++e) {
@@ -157,7 +152,7 @@ gel::v1::Study StudyManager::with_job_states(gel::v1::Study study) {
     if (job.has_progress() && job.state() == gel::v1::JOB_STATE_RUNNING) *entry.mutable_progress() = job.progress();
     any_running |= job.state() == gel::v1::JOB_STATE_RUNNING;
     any_started |= job.state() != gel::v1::JOB_STATE_QUEUED;
-    all_ended &= ended(job.state());
+    all_ended &= is_terminal(job.state());
     all_succeeded &= job.state() == gel::v1::JOB_STATE_SUCCEEDED;
     finished = std::max(finished, job.finished_unix_ms());
     if (job.state() == gel::v1::JOB_STATE_FAILED && failure.empty())
@@ -203,14 +198,11 @@ gel::v1::Study StudyManager::get(const std::string& id) {
 }
 
 gel::v1::ListStudiesResponse StudyManager::list(const gel::v1::ListStudiesRequest& request) {
-  if (request.page_size() < 0) throw invalid("page_size: must be >= 0");
-  const int limit = request.page_size() == 0 ? 50 : std::min(request.page_size(), 1000);
-  const std::int64_t before = parse_page_token(request.page_token(), "ListStudies");
-  auto rows = jobs_.store().list_studies(before, limit + 1);
+  const Page page = Page::parse(request.page_size(), request.page_token(), "ListStudies");
+  auto rows = jobs_.store().list_studies(page.before_seq, page.size + 1);  // one more: is there a next page?
   gel::v1::ListStudiesResponse response;
-  for (std::size_t i = 0; i < rows.size() && i < static_cast<std::size_t>(limit); ++i)
-    *response.add_studies() = with_job_states(std::move(rows[i].second));
-  if (rows.size() > static_cast<std::size_t>(limit)) response.set_next_page_token(std::to_string(rows[limit - 1].first));
+  response.set_next_page_token(page.next_token(rows));
+  for (auto& [seq, study] : rows) *response.add_studies() = with_job_states(std::move(study));
   return response;
 }
 
@@ -218,7 +210,7 @@ gel::v1::Study StudyManager::cancel(const std::string& id) {
   const gel::v1::Study study = get(id);
   bool cancelled_any = false;
   for (const gel::v1::StudyJob& job : study.jobs()) {
-    if (ended(job.state())) continue;
+    if (is_terminal(job.state())) continue;
     try {
       jobs_.cancel(job.job_id());
       cancelled_any = true;
@@ -226,7 +218,7 @@ gel::v1::Study StudyManager::cancel(const std::string& id) {
       if (error.code() != grpc::StatusCode::FAILED_PRECONDITION) throw;  // it ended meanwhile
     }
   }
-  if (!cancelled_any && ended(study.state()))
+  if (!cancelled_any && is_terminal(study.state()))
     throw ApiError(grpc::StatusCode::FAILED_PRECONDITION, "study " + id + " has already ended (" +
                                                               Store::state_name(study.state()) + ")");
   return get(id);

@@ -133,7 +133,7 @@ TEST(FuzzSubmit, MutatedRequestsAreStoredOnceOrRefusedNamingAField) {
   std::set<std::string> ids;
   int accepted = 0, refused = 0, unparsable = 0;
   {
-    geld::JobManager manager(options, geld::make_compression_engine(), std::make_shared<StopAtOnce>());
+    geld::JobManager manager(options, geld::make_gelcore_adapter(), std::make_shared<StopAtOnce>());
     manager.start();
     const auto seeds = seed_requests();
     std::mt19937_64 random(20261203);

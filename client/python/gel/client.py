@@ -139,7 +139,7 @@ def _where_bound(where, text):
 
 def _where_equals_text(value):
     # geld compares `equals` with the resolved scene's field as text, or as a number when the text
-    # is one; booleans are stored as "true"/"false" (server/compression_engine.cpp, flatten).
+    # is one; booleans are stored as "true"/"false" (server/gelcore_adapter.cpp, flatten).
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, numbers.Integral):

@@ -1,5 +1,5 @@
-// The compression engine behind geld: submissions are resolved and validated by gelcore, and
-// the "threads" executor runs members in-process with gel::run_compression.
+// What geld asks gelcore about a job besides running it (gelcore_adapter.hpp): submissions
+// are validated and resolved, scenes and curves written as JSON, curves analysed.
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -9,7 +9,6 @@
 #include <google/protobuf/message.h>
 #include <nlohmann/json.hpp>
 
-#include "executor.hpp"
 #include "gel/analysis/run_analysis.hpp"
 #include "gel/compression.hpp"
 #include "gel/configuration.hpp"
@@ -18,7 +17,8 @@
 #include "gel/errors.hpp"
 #include "gel/generator.hpp"
 #include "gel/resources.hpp"
-#include "job_manager.hpp"
+#include "gelcore_adapter.hpp"
+#include "requests.hpp"
 #include "proto_json.hpp"
 
 namespace geld {
@@ -114,7 +114,7 @@ ApiError too_large(std::int64_t particles, const Limits& limits) {
                       std::to_string(limits.max_particles));
 }
 
-class CompressionEngine final : public Engine {
+class Gelcore final : public GelcoreAdapter {
  public:
   Prepared prepare(const gel::v1::SubmitJobRequest& request, const Limits& limits) override {
     gel::v1::Scene scene;
@@ -229,46 +229,8 @@ class CompressionEngine final : public Engine {
   }
 };
 
-class ThreadExecutor final : public Executor {
- public:
-  std::string name() const override { return "threads"; }
-
-  RunResult run(const RunContext& ctx) override {
-    gel::RunOptions options;
-    options.out_dir = ctx.out_dir;
-    options.on_progress = ctx.on_progress;
-    options.on_row = ctx.on_row;
-    options.stop = ctx.stop;
-    gel::CompressionResult result;
-    bool resumed = false;
-    if (gel::has_checkpoint(ctx.out_dir)) {
-      try {
-        if (ctx.log) ctx.log("info", "member " + std::to_string(ctx.member) + " resumes from its checkpoint");
-        result = gel::resume_compression(options);
-        resumed = true;
-        if (result.resumed_from_previous_checkpoint && ctx.log)
-          ctx.log("warn", "member " + std::to_string(ctx.member) + ": last checkpoint unusable (" + result.checkpoint_problem +
-                              "); went on from the one before it");
-      } catch (const gel::StabilityError&) {
-        throw;
-      } catch (const std::exception& e) {
-        // A checkpoint that cannot be read: the run is deterministic, so start it again.
-        if (ctx.log) ctx.log("warn", std::string("checkpoint unusable (") + e.what() + "); starting the member again");
-      }
-    }
-    if (!resumed) result = gel::run_compression(ctx.scene, options);
-    RunResult out;
-    out.finished = result.finished;
-    out.stopped = result.stopped;
-    out.curve = std::move(result.curve);
-    return out;
-  }
-};
-
 }  // namespace
 
-std::shared_ptr<Engine> make_compression_engine() { return std::make_shared<CompressionEngine>(); }
-
-std::unique_ptr<Executor> make_thread_executor() { return std::make_unique<ThreadExecutor>(); }
+std::shared_ptr<GelcoreAdapter> make_gelcore_adapter() { return std::make_shared<Gelcore>(); }
 
 }  // namespace geld
