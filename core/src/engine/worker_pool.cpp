@@ -73,7 +73,10 @@ void WorkerPool::run_erased(std::size_t tasks, void (*fn)(void*, std::size_t), v
 }
 
 void WorkerPool::worker() {
-  std::uint64_t seen = generation_.load();
+  // Generation 0 is the pool's start, not a region: a worker that the OS starts only after the
+  // first region was published must still take part in it (loading the counter here made such a
+  // worker skip that region and leave all of it to the caller).
+  std::uint64_t seen = 0;
   for (;;) {
     int spins = 0;
     std::uint64_t now = generation_.load(std::memory_order_acquire);
