@@ -14,6 +14,7 @@
 #include "gel/system.hpp"
 #include "gel/units.hpp"
 #include "system_internal.hpp"
+#include "floating_point.hpp"
 
 namespace gel {
 using namespace engine;
@@ -79,6 +80,7 @@ void System::set_threads(int threads) {
 int System::threads() const { return pool_ ? pool_->threads() : 1; }
 
 void System::step() {
+  const detail::FlushSubnormals flush_subnormals;
   if (!forces_valid_) compute_forces();
   const double dt = params_.dt;
   const bool drag = (params_.effects & kDrag) != 0;
@@ -131,6 +133,7 @@ void System::run(std::int64_t steps) {
 }
 
 void System::compute_forces() {
+  const detail::FlushSubnormals flush_subnormals;
   dispatch_bond_forces();  // writes every particle's force and torque (from zero)
   if (!external_.empty()) apply_external_forces();
   if (walls_active_) collect_wall_forces();

@@ -14,6 +14,7 @@
 #include "fire_kernels.hpp"
 #include "gel/units.hpp"
 #include "rotation.hpp"
+#include "floating_point.hpp"
 
 namespace gel {
 
@@ -36,6 +37,7 @@ constexpr std::int64_t kScaleInterval = 64;
 }  // namespace
 
 void System::affine_move_walls(double new_bottom, double new_top) {
+  const detail::FlushSubnormals flush_subnormals;
   if (!walls_active_) throw std::logic_error("no walls");
   require_finite("wall_bottom", new_bottom);
   require_finite("wall_top", new_top);
@@ -65,6 +67,7 @@ void System::affine_move_walls(double new_bottom, double new_top) {
 }
 
 void System::update_contacts() {
+  const detail::FlushSubnormals flush_subnormals;
   find_new_contacts();
   compute_forces();
 }
@@ -92,6 +95,7 @@ double System::mean_bond_force() const {
 }
 
 bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t max_iterations) {
+  const detail::FlushSubnormals flush_subnormals;
   require_positive("relaxation.force_tolerance", options.force_tolerance);
   require_positive("relaxation.dt_max_factor", options.dt_max_factor);
   require_positive("relaxation.max_step", options.max_step);

@@ -14,6 +14,7 @@
 #include "gel/units.hpp"
 #include "system_internal.hpp"
 #include "bonded_group.hpp"
+#include "floating_point.hpp"
 
 namespace gel {
 using namespace engine;
@@ -128,6 +129,7 @@ void System::install_walls() {
 }
 
 void System::translate_wall_group(WallSide side, double dy) {
+  const detail::FlushSubnormals flush_subnormals;
   if (!walls_active_) throw std::logic_error("no walls");
   require_finite("dy", dy);
   // The group is every particle connected through bonds to the wall's particles, short of the

@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "floating_point.hpp"
+
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
@@ -41,7 +43,9 @@ void WorkerPool::share(std::uint64_t generation) {
     const std::size_t task = static_cast<std::size_t>(claim & kTaskMask);
     if (task >= tasks_.load(std::memory_order_acquire)) return;
     if (!next_task_.compare_exchange_weak(claim, claim + 1, std::memory_order_acq_rel)) continue;
-    // The claim succeeded, so this region cannot end before the task is done: fn_ is its own.
+    // The claim succeeded, so this region cannot end before the task is done: fn_ is its own,
+    // and so is the caller's floating-point mode, which every task runs in.
+    set_floating_point_mode(fp_mode_);
     fn_(context_, task);
     tasks_done_.fetch_add(1, std::memory_order_release);
     claim = next_task_.load(std::memory_order_acquire);
@@ -57,6 +61,7 @@ void WorkerPool::run_erased(std::size_t tasks, void (*fn)(void*, std::size_t), v
   next_task_.store(tag | kTaskMask, std::memory_order_release);
   fn_ = fn;
   context_ = context;
+  fp_mode_ = floating_point_mode();
   tasks_.store(tasks, std::memory_order_release);
   tasks_done_.store(0, std::memory_order_relaxed);
   next_task_.store(tag, std::memory_order_release);

@@ -1,8 +1,9 @@
 #pragma once
 // The threads of one run (System::set_threads). Every task of a parallel region writes its own
 // outputs, so results never depend on which thread runs it or how many there are; reductions are
-// combined in task order by the caller. Workers spin briefly between regions (a step has several,
-// microseconds apart) and then sleep on the generation counter, so an idle run costs no CPU.
+// combined in task order by the caller, and every task runs in the caller's floating-point mode.
+// Workers spin briefly between regions (a step has several, microseconds apart) and then sleep
+// on the generation counter, so an idle run costs no CPU.
 // A region ends when its tasks are done, not when every worker has looked in: a worker the OS
 // has not scheduled (more threads than free cores) delays nothing, it just finds no task left.
 #include <atomic>
@@ -48,6 +49,7 @@ class WorkerPool {
   // worker that woke late for an older region fails instead of running a task of the new one.
   void (*fn_)(void*, std::size_t) = nullptr;
   void* context_ = nullptr;
+  unsigned fp_mode_ = 0;  // the caller's floating-point mode (floating_point.hpp), copied into each task
   std::atomic<std::size_t> tasks_{0};
   std::atomic<std::uint64_t> next_task_{0};
   std::atomic<std::size_t> tasks_done_{0};
