@@ -105,8 +105,8 @@ void Service::start(const DaemonSetup& setup) {
   options.manager.workers = setup.workers.value;
   options.manager.limits = setup.limits;
   std::shared_ptr<geld::Executor> executor = setup.executor ? setup.executor : geld::make_thread_executor();
-  std::shared_ptr<geld::Engine> engine = setup.engine ? setup.engine : geld::make_compression_engine();
-  daemon_ = std::make_unique<geld::Daemon>(options, engine, executor);
+  std::shared_ptr<geld::GelcoreAdapter> gelcore = setup.gelcore ? setup.gelcore : geld::make_gelcore_adapter();
+  daemon_ = std::make_unique<geld::Daemon>(options, gelcore, executor);
   daemon_->start();
   channel_ = grpc::CreateChannel("127.0.0.1:" + std::to_string(daemon_->port()), grpc::InsecureChannelCredentials());
   stub_ = gel::v1::GelService::NewStub(channel_);

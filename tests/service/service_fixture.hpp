@@ -20,6 +20,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "executor.hpp"
+#include "gelcore_adapter.hpp"
 #include "gel/v1/service.grpc.pb.h"
 #include "job_manager.hpp"
 #include "service.hpp"
@@ -94,7 +95,7 @@ struct DaemonSetup {
   Required<int> workers;                               // how many members run at once
   geld::Limits limits = {};                            // geld's defaults
   std::shared_ptr<geld::Executor> executor = nullptr;  // null: the real thread executor
-  std::shared_ptr<geld::Engine> engine = nullptr;      // null: the real compression engine
+  std::shared_ptr<geld::GelcoreAdapter> gelcore = nullptr;  // null: the real gelcore adapter
   std::string listen = "127.0.0.1:0";                  // loopback, any free port
   std::string token = "";                              // remote mode's bearer token
 };

@@ -14,10 +14,10 @@
 namespace geld_test {
 namespace {
 
-// The real compression engine under another program version, as after an upgrade of geld.
-class VersionedEngine final : public geld::Engine {
+// The real gelcore adapter under another program version, as after an upgrade of geld.
+class VersionedGelcore final : public geld::GelcoreAdapter {
  public:
-  explicit VersionedEngine(std::string version) : version_(std::move(version)) {}
+  explicit VersionedGelcore(std::string version) : version_(std::move(version)) {}
   Prepared prepare(const gel::v1::SubmitJobRequest& request, const geld::Limits& limits) override {
     return real_->prepare(request, limits);
   }
@@ -29,7 +29,7 @@ class VersionedEngine final : public geld::Engine {
   }
 
  private:
-  std::shared_ptr<geld::Engine> real_ = geld::make_compression_engine();
+  std::shared_ptr<geld::GelcoreAdapter> real_ = geld::make_gelcore_adapter();
   std::string version_;
 };
 
@@ -38,14 +38,14 @@ TEST_F(Service, ACurveNamesTheProgramThatRanItNotTheOneAnswering) {
   Script& script = make_script();
   start({.workers = 1,
          .executor = scripted(script),
-         .engine = std::make_shared<VersionedEngine>("0.1.0 git aaaaaaa Release")});
+         .gelcore = std::make_shared<VersionedGelcore>("0.1.0 git aaaaaaa Release")});
   const std::string id = submit_ok(tiny_scene_json(), {.rerun = true});
   watch(id);
   ASSERT_EQ(get(id).state(), gel::v1::JOB_STATE_SUCCEEDED);
   stop();
   start({.workers = 1,
          .executor = scripted(script),
-         .engine = std::make_shared<VersionedEngine>("0.2.0 git bbbbbbb Release")});
+         .gelcore = std::make_shared<VersionedGelcore>("0.2.0 git bbbbbbb Release")});
   EXPECT_EQ(get(id).program_version(), "0.1.0 git aaaaaaa Release");
   const auto response = curve(id);
   ASSERT_EQ(response.members_size(), 1);

@@ -129,7 +129,7 @@ TEST_F(Service, RemoteModeRequiresTheToken) {
     geld::DaemonOptions options;
     options.listen = "0.0.0.0:0";
     options.manager.data_dir = dir_.path();
-    geld::Daemon refused(options, geld::make_compression_engine(), geld::make_thread_executor());
+    geld::Daemon refused(options, geld::make_gelcore_adapter(), geld::make_thread_executor());
     EXPECT_THROW(refused.start(), std::invalid_argument);
   }
   const std::string token = "s3cret-token";

@@ -292,7 +292,7 @@ TEST(Daemon, ASecondDaemonOnTheSameDataDirOrPortRefusesToStart) {
     options.listen = listen;
     options.manager.data_dir = data;
     options.manager.workers = 1;
-    return std::make_unique<geld::Daemon>(options, geld::make_compression_engine(), geld::make_thread_executor());
+    return std::make_unique<geld::Daemon>(options, geld::make_gelcore_adapter(), geld::make_thread_executor());
   };
   auto first = make(dir.path(), "127.0.0.1:0");
   first->start();
