@@ -92,7 +92,8 @@ def report(args):
     products = {f: product_runs(args.family, args.bond, f) for f in ("paper", "quasistatic")}
     seeds = sorted(s for s in ref if all(s in products[f] for f in products))
     if not seeds:
-        return f"No seed of {args.family}-bond{args.bond} has both reference and product runs.\n"
+        sys.exit(f"no seed of {args.family}-bond{args.bond} has both a cached reference run in {args.refruns} "
+                 "and committed product runs: nothing to compare (run_reference.sh makes the former)")
     targets = min(min(len(ref[s]["rows"]) for s in seeds),
                   min(len(products[f][s]["rows"]) for f in products for s in seeds))
     out = [f"### {args.family}-bond{args.bond}: reference code (`491cca3`) against the product, "
