@@ -31,6 +31,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import quasistatic_study as qs  # noqa: E402
 import accuracy_study as acc  # noqa: E402
+import exponents_study  # noqa: E402
 
 # The paper's regime II ranges (Seto et al. 2013), over which lambda_II is fitted.
 REGIME_II = {1: (0.2, 0.31), 2: (0.2, 0.42)}
@@ -61,15 +62,6 @@ def paired_ratio(pairs, rng):
         return value, float("nan"), float("nan")
     samples = sorted(x for x in (ratio([rng.choice(pairs) for _ in pairs]) for _ in range(qs.BOOTSTRAP_SAMPLES))
                      if not math.isnan(x))
-    return value, samples[int(0.025 * len(samples))], samples[int(0.975 * len(samples)) - 1]
-
-
-def lambda_interval(runs, ks, rng):
-    value = acc.fit_lambda(runs, ks)
-    if len(runs) < qs.MIN_SEEDS_FOR_INTERVAL:
-        return value, float("nan"), float("nan")
-    samples = sorted(x for x in (acc.fit_lambda([rng.choice(runs) for _ in runs], ks)
-                                 for _ in range(qs.BOOTSTRAP_SAMPLES)) if not math.isnan(x))
     return value, samples[int(0.025 * len(samples))], samples[int(0.975 * len(samples)) - 1]
 
 
@@ -136,7 +128,7 @@ def report(args):
     out.append("| ensemble | seeds | λ_II (95 %) |")
     out.append("|---|---:|---|")
     for name, runs in rows_of.items():
-        out.append(f"| {name} | {len(runs)} | {show(*lambda_interval(runs, ks, rng), digits=2)} |")
+        out.append(f"| {name} | {len(runs)} | {show(*exponents_study.interval(runs, ks, rng), digits=2)} |")
     out.append("")
     return "\n".join(out) + "\n"
 
