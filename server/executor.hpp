@@ -49,6 +49,12 @@ struct RunContext {
   std::function<void(const gel::v1::Progress&)> on_progress;
   std::function<void(const gel::v1::CurveRow&)> on_row;
   std::function<void(const std::string& level, const std::string& message)> log;  // job log
+
+  // A line of the job's log about this member: "member N: message" (a job's members share its
+  // log). Nothing without a log.
+  void log_member(const std::string& level, const std::string& message) const {
+    if (log) log(level, "member " + std::to_string(member) + ": " + message);
+  }
 };
 
 struct RunResult {

@@ -20,12 +20,11 @@
 #include <stdexcept>
 #include <thread>
 
-#include <google/protobuf/util/json_util.h>
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include "gel/compression.hpp"
 #include "gel/curve_io.hpp"
+#include "gel/progress_file.hpp"
 #include "gel/run_directory.hpp"
 
 extern char** environ;
@@ -166,7 +165,7 @@ Phase phase_of(const std::string& raw) {
 }
 
 // ---------------------------------------------------------------------------------------
-// Progress file
+// Following the progress file (its lines: gel/progress_file.hpp)
 
 std::vector<std::string> LineFollower::poll() {
   std::vector<std::string> lines;
@@ -194,70 +193,6 @@ std::vector<std::string> LineFollower::poll() {
   }
   partial_.erase(0, start);
   return lines;
-}
-
-namespace {
-
-template <class Message>
-void proto_from_json(const nlohmann::json& object, Message& message, const char* what) {
-  google::protobuf::util::JsonParseOptions options;
-  options.ignore_unknown_fields = true;
-  const auto status = google::protobuf::util::JsonStringToMessage(object.dump(), &message, options);
-  if (!status.ok()) throw std::runtime_error(std::string("bad ") + what + " line: " + status.ToString());
-}
-
-// The payload is either nested ({"type":"row","row":{...}}) or the line itself.
-nlohmann::json payload(const nlohmann::json& line, const char* key) {
-  if (line.contains(key) && line.at(key).is_object()) return line.at(key);
-  nlohmann::json copy = line;
-  copy.erase("type");
-  return copy;
-}
-
-}  // namespace
-
-ProgressLine parse_progress_line(const std::string& text) {
-  nlohmann::json line;
-  try {
-    line = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(std::string("progress file: not JSON: ") + e.what());
-  }
-  if (!line.is_object()) throw std::runtime_error("progress file: a line is not a JSON object");
-  ProgressLine parsed;
-  const std::string type = line.value("type", "");
-  if (type == "progress") {
-    parsed.kind = ProgressLine::Progress;
-    nlohmann::json progress = payload(line, "progress");
-    // gelsim writes the pressure as "P" (curve.json's spelling); the proto field is "p".
-    if (progress.contains("P") && !progress.contains("p")) {
-      progress["p"] = progress["P"];
-      progress.erase("P");
-    }
-    proto_from_json(progress, parsed.progress, "progress");
-  } else if (type == "row") {
-    parsed.kind = ProgressLine::Row;
-    const nlohmann::json row = payload(line, "row");
-    // curve.json's spelling ("P", "P_top", ...) or the proto's JSON mapping.
-    if (row.contains("P")) {
-      try {
-        parsed.row = gel::curve_row_from_json(row);
-      } catch (const std::exception& e) {
-        throw std::runtime_error(std::string("bad row line: ") + e.what());
-      }
-    } else {
-      proto_from_json(row, parsed.row, "row");
-    }
-  } else if (type == "done") {
-    parsed.kind = ProgressLine::Done;
-  } else if (type == "failed") {
-    parsed.kind = ProgressLine::Failed;
-    const auto& error = line.contains("error") ? line.at("error") : line.value("message", nlohmann::json());
-    parsed.error = error.is_string() ? error.get<std::string>() : error.dump();
-    if (parsed.error.empty() || parsed.error == "null") parsed.error = "gelsim reported a failure";
-    if (line.value("kind", "") == "instability") parsed.error = gel::kInstabilityPrefix + parsed.error;
-  }
-  return parsed;
 }
 
 }  // namespace slurm
@@ -366,12 +301,111 @@ std::string file_tail(const std::string& path, int lines) {
   return joined;
 }
 
+// The files of a member's folder the executor names: the scene it runs, the progress file,
+// Slurm's output of one of its jobs.
+std::string scene_path(const std::string& dir) { return (fs::path(dir) / "scene.json").string(); }
+std::string progress_path(const std::string& dir) { return (fs::path(dir) / "progress.jsonl").string(); }
+std::string slurm_output_path(const std::string& dir, const std::string& slurm_id) {
+  return (fs::path(dir) / ("slurm-" + slurm_id + ".out")).string();
+}
+
+// Whether a done or failed line (the member's outcome) is in the progress file.
+bool outcome_written(const std::string& dir) {
+  slurm::LineFollower probe(progress_path(dir));
+  for (const auto& line : probe.poll()) {
+    try {
+      const auto kind = gel::parse_progress_line(line).kind;
+      if (kind == gel::ProgressLine::Done || kind == gel::ProgressLine::Failed) return true;
+    } catch (const std::exception&) {
+    }
+  }
+  return false;
+}
+
+// The member's progress file as the run goes: rows and progress go to the context's callbacks
+// as they come; the outcome is decided by its done or failed line.
+class MemberProgress {
+ public:
+  explicit MemberProgress(const std::string& dir) : dir_(dir), follower_(progress_path(dir)) {}
+
+  // Reads the new lines. Returns the finished member's result after a done line; throws
+  // gelsim's error after a failed line; nothing while the run goes on.
+  std::optional<RunResult> read(const RunContext& ctx, const Handle& handle) {
+    bool done = false;
+    std::string failure;
+    for (const auto& line : follower_.poll()) {
+      gel::ProgressLine parsed;
+      try {
+        parsed = gel::parse_progress_line(line);
+      } catch (const std::exception& e) {
+        ctx.log_member("warn", e.what());
+        continue;
+      }
+      switch (parsed.kind) {
+        case gel::ProgressLine::Progress:
+          if (ctx.on_progress) ctx.on_progress(parsed.progress);
+          break;
+        case gel::ProgressLine::Row:
+          rows_.push_back(parsed.row);
+          if (ctx.on_row) ctx.on_row(parsed.row);
+          break;
+        case gel::ProgressLine::Done:
+          done = true;
+          break;
+        case gel::ProgressLine::Failed:
+          failure = parsed.error;
+          break;
+        case gel::ProgressLine::Other:
+          break;
+      }
+    }
+    if (done) return finished(ctx);
+    if (!failure.empty()) throw std::runtime_error("gelsim failed (Slurm job " + handle.slurm_id + "): " + failure);
+    return std::nullopt;
+  }
+
+ private:
+  RunResult finished(const RunContext& ctx) const {
+    RunResult result;
+    result.finished = true;
+    try {
+      result.curve = gel::read_curve(dir_);
+    } catch (const std::exception& e) {
+      // curve.json unreadable: the rows the progress file gave are the curve.
+      ctx.log_member("warn", std::string(e.what()) + "; using the streamed rows");
+      for (const auto& row : rows_) *result.curve.add_rows() = row;
+      *result.curve.mutable_scene() = ctx.scene;
+    }
+    return result;
+  }
+
+  std::string dir_;
+  slurm::LineFollower follower_;
+  std::vector<gel::v1::CurveRow> rows_;
+};
+
+// What the follow loop remembers of squeue's answers.
+struct QueueWatch {
+  Clock::time_point next_query = Clock::now();
+  std::string last_state;                     // the last state logged
+  std::optional<Clock::time_point> ended_at;  // first seen ended without an outcome line
+  std::string unreachable_message;            // squeue's error while it fails ("" once it answers)
+};
+
 class SlurmExecutor final : public Executor {
  public:
   explicit SlurmExecutor(SlurmOptions options) : options_(std::move(options)) {}
   std::string name() const override { return "slurm"; }
   bool runs_in_process() const override { return false; }
-  RunResult run(const RunContext& ctx) override;
+
+  // In steps: the scene the nodes run, the Slurm job (found again or submitted), then its
+  // progress file and queue state followed until an outcome, a stop or a failure.
+  RunResult run(const RunContext& ctx) override {
+    const std::string dir = member_dir(ctx);
+    fs::create_directories(dir);
+    write_scene(ctx, dir);
+    return follow(ctx, dir, attach_or_submit(ctx, dir));
+  }
 
  private:
   std::string bin(const char* name) const {
@@ -381,6 +415,22 @@ class SlurmExecutor final : public Executor {
   std::string job_name(const RunContext& ctx) const {
     return "gel-" + ctx.job_id + "-" + std::to_string(ctx.member);
   }
+  // A queue entry is this member's only under its job name (Slurm's ids restart when its state
+  // is wiped); the phase of anyone else's is Unknown.
+  bool ours(const QueueState& q, const RunContext& ctx) const {
+    return q.kind == QueueState::Known && q.name == job_name(ctx);
+  }
+  slurm::Phase phase(const QueueState& q, const RunContext& ctx) const {
+    return ours(q, ctx) ? slurm::phase_of(q.state) : slurm::Phase::Unknown;
+  }
+
+  void write_scene(const RunContext& ctx, const std::string& dir) const;
+  Handle attach_or_submit(const RunContext& ctx, const std::string& dir);
+  RunResult follow(const RunContext& ctx, const std::string& dir, Handle handle);
+  std::optional<RunResult> check_queue(const RunContext& ctx, const std::string& dir, Handle& handle, QueueWatch& watch,
+                                       MemberProgress& progress);
+  void ended_without_outcome(const RunContext& ctx, const std::string& dir, Handle& handle, const QueueState& q);
+
   Handle submit(const RunContext& ctx, const std::string& dir, int requeues);
   QueueState query(const std::string& slurm_id) const;
   std::string scontrol_summary(const std::string& slurm_id) const;
@@ -397,16 +447,155 @@ std::string SlurmExecutor::member_dir(const RunContext& ctx) const {
       .string();
 }
 
+// The scene the nodes run, written atomically (the same resolved scene on every run).
+void SlurmExecutor::write_scene(const RunContext& ctx, const std::string& dir) const {
+  const std::string path = scene_path(dir);
+  if (ctx.handle.empty() && gel::has_checkpoint(dir)) {
+    // A fresh member resumes a checkpoint it finds (geld stopped between sbatch and saving the
+    // handle), but only its own: job ids are numbered per database, so two gelds on one shared
+    // folder, or one whose database was replaced, meet at the same paths, and resuming another
+    // job's checkpoint would report that job's curve as this one's.
+    std::ifstream in(path, std::ios::binary);
+    const std::string previous((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (previous != ctx.scene_json)
+      throw std::runtime_error("the member folder " + dir +
+                               " holds a checkpoint of a different scene (another job with the same id, from "
+                               "another geld or an earlier database, on this shared folder); it is left as it is: "
+                               "give each geld its own slurm-shared-dir, or remove that folder to run this member");
+  }
+  {
+    std::ofstream out(path + ".tmp", std::ios::binary | std::ios::trunc);
+    out << ctx.scene_json;
+    if (!out) throw std::runtime_error("cannot write " + path);
+  }
+  fs::rename(path + ".tmp", path);
+}
+
+// Re-attaches to the Slurm job an earlier run submitted (geld restarted), or submits one.
+Handle SlurmExecutor::attach_or_submit(const RunContext& ctx, const std::string& dir) {
+  if (ctx.handle.empty()) {
+    // A fresh member. A stale progress file of an attempt whose handle was never saved goes
+    // away unless a checkpoint continues it.
+    if (!gel::has_checkpoint(dir)) fs::remove(progress_path(dir));
+    return submit(ctx, dir, 0);
+  }
+  const Handle saved = Handle::parse(ctx.handle);
+  const QueueState q = query(saved.slurm_id);
+  const slurm::Phase p = phase(q, ctx);
+  if (q.kind == QueueState::Unreachable ||
+      p == slurm::Phase::Queued || p == slurm::Phase::Running || p == slurm::Phase::Completed) {
+    // Still there (or Slurm cannot say right now: the follow loop waits for it).
+    ctx.log_member("info", "following Slurm job " + saved.slurm_id + " again (" +
+                               (q.kind == QueueState::Unreachable ? "squeue: " + q.message : q.state) + ")");
+    return saved;
+  }
+  // Ended while geld was away, or the id is someone else's now. A done/failed line decides (the
+  // follow loop reads it); otherwise it counts as a requeue and continues from the checkpoint.
+  if (outcome_written(dir)) return saved;
+  const std::string gone = "Slurm job " + saved.slurm_id + " is gone (" + (ours(q, ctx) ? q.state : "not in the queue") + ")";
+  if (saved.requeues >= options_.max_requeues)
+    throw std::runtime_error(gone + " without an outcome, after " + std::to_string(saved.requeues) +
+                             " requeues (max-requeues)");
+  ctx.log_member("warn", gone + "; resubmitting");
+  return submit(ctx, dir, saved.requeues + 1);
+}
+
+RunResult SlurmExecutor::follow(const RunContext& ctx, const std::string& dir, Handle handle) {
+  MemberProgress progress(dir);
+  QueueWatch watch;
+  const auto poll_period = std::chrono::duration<double>(options_.poll_seconds);
+  const auto query_period = std::max<std::chrono::duration<double>>(poll_period * 2, std::chrono::seconds(1));
+  while (true) {
+    if (ctx.stop && ctx.stop->load()) {
+      if (ctx.cancel && ctx.cancel->load()) cancel(ctx, handle);
+      // Shutdown: the Slurm job keeps running; the saved handle finds it again.
+      RunResult result;
+      result.stopped = true;
+      return result;
+    }
+    if (auto result = progress.read(ctx, handle)) return *result;
+    if (Clock::now() >= watch.next_query) {
+      watch.next_query = Clock::now() + std::chrono::duration_cast<Clock::duration>(query_period);
+      if (auto result = check_queue(ctx, dir, handle, watch, progress)) return *result;
+    }
+    // Sleep one poll period in short slices, so stop requests are seen quickly.
+    const auto wake = Clock::now() + std::chrono::duration_cast<Clock::duration>(poll_period);
+    while (Clock::now() < wake && !(ctx.stop && ctx.stop->load()))
+      std::this_thread::sleep_for(std::min<Clock::duration>(wake - Clock::now(), std::chrono::milliseconds(50)));
+  }
+}
+
+// One squeue look at the member's Slurm job: its state changes are logged; once it has ended
+// the last lines of the progress file decide, or, without an outcome line after a grace,
+// ended_without_outcome. Returns the member's result when a late done line came.
+std::optional<RunResult> SlurmExecutor::check_queue(const RunContext& ctx, const std::string& dir, Handle& handle,
+                                                    QueueWatch& watch, MemberProgress& progress) {
+  const QueueState q = query(handle.slurm_id);
+  if (q.kind == QueueState::Unreachable) {
+    // slurmctld restarting or overloaded: keep waiting, say so once.
+    if (watch.unreachable_message.empty())
+      ctx.log_member("warn", "squeue failed (" + q.message + "); still waiting for Slurm job " + handle.slurm_id);
+    watch.unreachable_message = q.message;
+    return std::nullopt;
+  }
+  watch.unreachable_message.clear();
+  const slurm::Phase p = phase(q, ctx);
+  if (ours(q, ctx) && q.state != watch.last_state) {
+    watch.last_state = q.state;
+    ctx.log_member("info", "Slurm job " + handle.slurm_id + " " + q.state +
+                               (p == slurm::Phase::Queued && !q.reason.empty() && q.reason != "None" ? " (" + q.reason + ")" : ""));
+  }
+  if (p == slurm::Phase::Queued || p == slurm::Phase::Running) {
+    watch.ended_at.reset();
+    return std::nullopt;
+  }
+  // The job ended (or left the queue). Give the shared filesystem a moment to show the last
+  // lines, then decide.
+  if (auto result = progress.read(ctx, handle)) return result;
+  if (!watch.ended_at) watch.ended_at = Clock::now();
+  if (Clock::now() - *watch.ended_at >= std::chrono::seconds(5) || p == slurm::Phase::Cancelled) {
+    ended_without_outcome(ctx, dir, handle, q);
+    // Resubmitted: a new Slurm job to follow.
+    watch.last_state.clear();
+    watch.ended_at.reset();
+  }
+  return std::nullopt;
+}
+
+// The Slurm job ended without a done or failed line: cancelled outside geld and failed ends
+// throw the member's error; a requeue state (TIMEOUT, NODE_FAIL, ...) or a job gone from the
+// queue resubmits the member from its last checkpoint, up to max-requeues times.
+void SlurmExecutor::ended_without_outcome(const RunContext& ctx, const std::string& dir, Handle& handle,
+                                          const QueueState& q) {
+  const slurm::Phase p = phase(q, ctx);
+  const std::string detail = scontrol_summary(handle.slurm_id);
+  const std::string tail = file_tail(slurm_output_path(dir, handle.slurm_id), 3);
+  const std::string state_text = ours(q, ctx) ? q.state : "gone from the queue";
+  if (p == slurm::Phase::Cancelled)
+    throw std::runtime_error("Slurm job " + handle.slurm_id + " was cancelled outside geld (" + q.state + ")");
+  if (p == slurm::Phase::Requeue || p == slurm::Phase::Unknown) {
+    if (handle.requeues >= options_.max_requeues)
+      throw std::runtime_error("Slurm job " + handle.slurm_id + " ended " + state_text + " after " +
+                               std::to_string(handle.requeues) + " requeues (max-requeues)");
+    ctx.log_member("warn", "Slurm job " + handle.slurm_id + " ended " + state_text + "; resubmitting from the last checkpoint");
+    handle = submit(ctx, dir, handle.requeues + 1);
+    return;
+  }
+  // COMPLETED without a done line, FAILED, OUT_OF_MEMORY, ...
+  std::string message = "Slurm job " + handle.slurm_id + " ended " + state_text;
+  if (!detail.empty()) message += " [" + detail + "]";
+  if (!tail.empty()) message += ": " + tail;
+  throw std::runtime_error(message);
+}
+
 Handle SlurmExecutor::submit(const RunContext& ctx, const std::string& dir, int requeues) {
   const bool resume = gel::has_checkpoint(dir);
   // Without a checkpoint the member starts over (the run is deterministic); what an attempt
   // left before its first checkpoint would make gelsim refuse the folder as a used one.
   if (!resume)
     for (const std::string& name : gel::earlier_run_outputs(dir)) fs::remove_all(fs::path(dir) / name);
-  const std::string scene_path = (fs::path(dir) / "scene.json").string();
-  std::string script = slurm::shell_quote(options_.gelsim) + " compress --scene " + slurm::shell_quote(scene_path) +
-                       " --out " + slurm::shell_quote(dir) + " --progress-file " +
-                       slurm::shell_quote((fs::path(dir) / "progress.jsonl").string());
+  std::string script = slurm::shell_quote(options_.gelsim) + " compress --scene " + slurm::shell_quote(scene_path(dir)) +
+                       " --out " + slurm::shell_quote(dir) + " --progress-file " + slurm::shell_quote(progress_path(dir));
   if (resume) script += " --resume";
   std::vector<std::string> argv = {bin("sbatch"),  "--parsable", "--job-name", job_name(ctx),
                                    "--output",     (fs::path(dir) / "slurm-%j.out").string(),
@@ -426,10 +615,9 @@ Handle SlurmExecutor::submit(const RunContext& ctx, const std::string& dir, int 
     throw std::runtime_error("sbatch printed no job id: '" + trim(result.out) + "'");
   Handle handle{id, requeues};
   if (ctx.save_handle) ctx.save_handle(handle.text());
-  if (ctx.log)
-    ctx.log("info", "member " + std::to_string(ctx.member) + " (seed " + std::to_string(ctx.seed) +
-                        "): Slurm job " + id + (resume ? " resumes from the checkpoint" : " submitted") +
-                        (requeues ? " (requeue " + std::to_string(requeues) + ")" : "") + " in " + dir);
+  ctx.log_member("info", "Slurm job " + id + (resume ? " resumes from the checkpoint" : " submitted") + " (seed " +
+                             std::to_string(ctx.seed) + (requeues ? ", requeue " + std::to_string(requeues) : "") +
+                             ") in " + dir);
   spdlog::info("job {} member {}: Slurm job {} submitted{}", ctx.job_id, ctx.member, id, resume ? " (--resume)" : "");
   return handle;
 }
@@ -471,221 +659,10 @@ std::string SlurmExecutor::scontrol_summary(const std::string& slurm_id) const {
 
 void SlurmExecutor::cancel(const RunContext& ctx, const Handle& handle) const {
   const auto result = slurm::run_command({bin("scancel"), handle.slurm_id}, kCommandTimeout);
-  if (result.exit_code != 0 && ctx.log)
-    ctx.log("warn", "scancel " + handle.slurm_id + " failed: " + trim(result.err));
-  else if (ctx.log)
-    ctx.log("info", "member " + std::to_string(ctx.member) + ": Slurm job " + handle.slurm_id + " cancelled (scancel)");
-}
-
-RunResult SlurmExecutor::run(const RunContext& ctx) {
-  const std::string dir = member_dir(ctx);
-  fs::create_directories(dir);
-  const std::string progress_path = (fs::path(dir) / "progress.jsonl").string();
-
-  // The scene the nodes run, written atomically (the same resolved scene on every run).
-  const std::string scene_path = (fs::path(dir) / "scene.json").string();
-  if (ctx.handle.empty() && gel::has_checkpoint(dir)) {
-    // A fresh member resumes a checkpoint it finds (geld stopped between sbatch and saving the
-    // handle), but only its own: job ids are numbered per database, so two gelds on one shared
-    // folder, or one whose database was replaced, meet at the same paths, and resuming another
-    // job's checkpoint would report that job's curve as this one's.
-    std::ifstream in(scene_path, std::ios::binary);
-    const std::string previous((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (previous != ctx.scene_json)
-      throw std::runtime_error("the member folder " + dir +
-                               " holds a checkpoint of a different scene (another job with the same id, from "
-                               "another geld or an earlier database, on this shared folder); it is left as it is: "
-                               "give each geld its own slurm-shared-dir, or remove that folder to run this member");
-  }
-  {
-    std::ofstream out(scene_path + ".tmp", std::ios::binary | std::ios::trunc);
-    out << ctx.scene_json;
-    if (!out) throw std::runtime_error("cannot write " + scene_path);
-  }
-  fs::rename(scene_path + ".tmp", scene_path);
-
-  // Re-attach to a job submitted by an earlier run (geld restarted), or submit.
-  std::optional<Handle> handle;
-  if (!ctx.handle.empty()) {
-    Handle saved = Handle::parse(ctx.handle);
-    const QueueState q = query(saved.slurm_id);
-    const bool ours = q.kind == QueueState::Known && q.name == job_name(ctx);
-    const auto phase = ours ? slurm::phase_of(q.state) : slurm::Phase::Unknown;
-    if (q.kind == QueueState::Unreachable ||
-        (ours && (phase == slurm::Phase::Queued || phase == slurm::Phase::Running || phase == slurm::Phase::Completed))) {
-      // Still there (or Slurm cannot say right now: the follow loop waits for it).
-      handle = saved;
-      if (ctx.log)
-        ctx.log("info", "member " + std::to_string(ctx.member) + ": following Slurm job " + saved.slurm_id + " again (" +
-                            (q.kind == QueueState::Unreachable ? "squeue: " + q.message : q.state) + ")");
-    } else {
-      // Ended while geld was away, or the id is someone else's now (Slurm's ids restart when
-      // its state is wiped). A done/failed line decides; otherwise it counts as a requeue and
-      // continues from the checkpoint.
-      slurm::LineFollower probe(progress_path);
-      bool decided = false;
-      for (const auto& line : probe.poll()) {
-        try {
-          const auto kind = slurm::parse_progress_line(line).kind;
-          if (kind == slurm::ProgressLine::Done || kind == slurm::ProgressLine::Failed) decided = true;
-        } catch (const std::exception&) {
-        }
-      }
-      if (decided) {
-        handle = saved;  // the follow loop below reads the outcome
-      } else {
-        if (saved.requeues >= options_.max_requeues)
-          throw std::runtime_error("Slurm job " + saved.slurm_id + " is gone (" + (ours ? q.state : "not in the queue") +
-                                   ") without an outcome, after " + std::to_string(saved.requeues) +
-                                   " requeues (max-requeues)");
-        if (ctx.log)
-          ctx.log("warn", "member " + std::to_string(ctx.member) + ": Slurm job " + saved.slurm_id + " is gone (" +
-                              (ours ? q.state : "not in the queue") + "); resubmitting");
-        handle = submit(ctx, dir, saved.requeues + 1);
-      }
-    }
-  } else {
-    // A fresh member. A stale progress file of an attempt whose handle was never saved goes
-    // away unless a checkpoint continues it.
-    if (!gel::has_checkpoint(dir)) fs::remove(progress_path);
-    handle = submit(ctx, dir, 0);
-  }
-
-  slurm::LineFollower follower(progress_path);
-  std::vector<gel::v1::CurveRow> rows;
-  bool done = false;
-  std::string failure;
-  std::string last_state;
-  auto next_query = Clock::now();
-  const auto poll_period = std::chrono::duration<double>(options_.poll_seconds);
-  const auto query_period = std::max<std::chrono::duration<double>>(poll_period * 2, std::chrono::seconds(1));
-  // When the job was first seen ended without an outcome line (grace for a shared filesystem).
-  bool ended_seen = false;
-  Clock::time_point ended_at{};
-  std::string unreachable_since_message;
-
-  auto drain = [&] {
-    for (const auto& line : follower.poll()) {
-      slurm::ProgressLine parsed;
-      try {
-        parsed = slurm::parse_progress_line(line);
-      } catch (const std::exception& e) {
-        if (ctx.log) ctx.log("warn", std::string("member ") + std::to_string(ctx.member) + ": " + e.what());
-        continue;
-      }
-      switch (parsed.kind) {
-        case slurm::ProgressLine::Progress:
-          if (ctx.on_progress) ctx.on_progress(parsed.progress);
-          break;
-        case slurm::ProgressLine::Row:
-          rows.push_back(parsed.row);
-          if (ctx.on_row) ctx.on_row(parsed.row);
-          break;
-        case slurm::ProgressLine::Done:
-          done = true;
-          break;
-        case slurm::ProgressLine::Failed:
-          failure = parsed.error;
-          break;
-        case slurm::ProgressLine::Other:
-          break;
-      }
-    }
-  };
-
-  auto finished_result = [&] {
-    RunResult result;
-    result.finished = true;
-    try {
-      result.curve = gel::read_curve(dir);
-    } catch (const std::exception& e) {
-      // curve.json unreadable: the rows the progress file gave are the curve.
-      if (ctx.log) ctx.log("warn", "member " + std::to_string(ctx.member) + ": " + e.what() + "; using the streamed rows");
-      for (const auto& row : rows) *result.curve.add_rows() = row;
-      *result.curve.mutable_scene() = ctx.scene;
-    }
-    return result;
-  };
-
-  while (true) {
-    if (ctx.stop && ctx.stop->load()) {
-      if (ctx.cancel && ctx.cancel->load()) cancel(ctx, *handle);
-      // Shutdown: the Slurm job keeps running; the saved handle finds it again.
-      RunResult result;
-      result.stopped = true;
-      return result;
-    }
-    drain();
-    if (done) return finished_result();
-    if (!failure.empty()) throw std::runtime_error("gelsim failed (Slurm job " + handle->slurm_id + "): " + failure);
-
-    if (Clock::now() >= next_query) {
-      next_query = Clock::now() + std::chrono::duration_cast<Clock::duration>(query_period);
-      const QueueState q = query(handle->slurm_id);
-      if (q.kind == QueueState::Unreachable) {
-        // slurmctld restarting or overloaded: keep waiting, say so once.
-        if (unreachable_since_message.empty() && ctx.log)
-          ctx.log("warn", "squeue failed (" + q.message + "); still waiting for Slurm job " + handle->slurm_id);
-        unreachable_since_message = q.message;
-      } else {
-        unreachable_since_message.clear();
-        const bool ours = q.kind == QueueState::Known && q.name == job_name(ctx);
-        const auto phase = ours ? slurm::phase_of(q.state) : slurm::Phase::Unknown;
-        if (ours && q.state != last_state) {
-          last_state = q.state;
-          if (ctx.log)
-            ctx.log("info", "member " + std::to_string(ctx.member) + ": Slurm job " + handle->slurm_id + " " + q.state +
-                                (phase == slurm::Phase::Queued && !q.reason.empty() && q.reason != "None"
-                                     ? " (" + q.reason + ")"
-                                     : ""));
-        }
-        if (phase == slurm::Phase::Queued || phase == slurm::Phase::Running) {
-          ended_seen = false;
-        } else {
-          // The job ended (or left the queue). Give the shared filesystem a moment to show the
-          // last lines, then decide.
-          drain();
-          if (done) return finished_result();
-          if (!failure.empty())
-            throw std::runtime_error("gelsim failed (Slurm job " + handle->slurm_id + "): " + failure);
-          if (!ended_seen) {
-            ended_seen = true;
-            ended_at = Clock::now();
-          }
-          if (Clock::now() - ended_at >= std::chrono::seconds(5) || phase == slurm::Phase::Cancelled) {
-            const std::string out_file = (fs::path(dir) / ("slurm-" + handle->slurm_id + ".out")).string();
-            const std::string detail = scontrol_summary(handle->slurm_id);
-            const std::string tail = file_tail(out_file, 3);
-            const std::string state_text = ours ? q.state : "gone from the queue";
-            if (phase == slurm::Phase::Cancelled) {
-              throw std::runtime_error("Slurm job " + handle->slurm_id + " was cancelled outside geld (" + q.state + ")");
-            }
-            if (phase == slurm::Phase::Requeue || phase == slurm::Phase::Unknown) {
-              if (handle->requeues >= options_.max_requeues)
-                throw std::runtime_error("Slurm job " + handle->slurm_id + " ended " + state_text + " after " +
-                                         std::to_string(handle->requeues) + " requeues (max-requeues)");
-              if (ctx.log)
-                ctx.log("warn", "member " + std::to_string(ctx.member) + ": Slurm job " + handle->slurm_id + " ended " +
-                                    state_text + "; resubmitting from the last checkpoint");
-              handle = submit(ctx, dir, handle->requeues + 1);
-              last_state.clear();
-              ended_seen = false;
-              continue;
-            }
-            // COMPLETED without a done line, FAILED, OUT_OF_MEMORY, ...
-            std::string message = "Slurm job " + handle->slurm_id + " ended " + state_text;
-            if (!detail.empty()) message += " [" + detail + "]";
-            if (!tail.empty()) message += ": " + tail;
-            throw std::runtime_error(message);
-          }
-        }
-      }
-    }
-    // Sleep one poll period in short slices, so stop requests are seen quickly.
-    const auto wake = Clock::now() + std::chrono::duration_cast<Clock::duration>(poll_period);
-    while (Clock::now() < wake && !(ctx.stop && ctx.stop->load()))
-      std::this_thread::sleep_for(std::min<Clock::duration>(wake - Clock::now(), std::chrono::milliseconds(50)));
-  }
+  if (result.exit_code != 0)
+    ctx.log_member("warn", "scancel " + handle.slurm_id + " failed: " + trim(result.err));
+  else
+    ctx.log_member("info", "Slurm job " + handle.slurm_id + " cancelled (scancel)");
 }
 
 }  // namespace

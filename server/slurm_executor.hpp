@@ -7,7 +7,7 @@
 //
 // where <dir> is the member's directory on a filesystem shared with the compute nodes
 // (<shared-dir>/<job>/<member dir>). gelsim appends one JSON line per progress message and per
-// equilibrium to progress.jsonl ({"type":"progress"|"row"|"done"|"failed", ...}); run() follows
+// equilibrium to progress.jsonl (its writer and reader: gel/progress_file.hpp); run() follows
 // that file by offset (a partial last line waits for its newline) and hands rows and progress
 // to the same callbacks as the thread executor, so store and streams do not change. The Slurm
 // state comes from `squeue -h -t all -j ID -o ...` (no accounting needed) and `scontrol show
@@ -93,16 +93,6 @@ class LineFollower {
   std::uint64_t offset_ = 0;
   std::string partial_;
 };
-
-// One parsed progress-file line.
-struct ProgressLine {
-  enum Kind { Progress, Row, Done, Failed, Other } kind = Other;
-  gel::v1::Progress progress;
-  gel::v1::CurveRow row;
-  std::string error;
-};
-// Throws std::runtime_error on a line that is not JSON or whose payload does not parse.
-ProgressLine parse_progress_line(const std::string& line);
 
 }  // namespace slurm
 }  // namespace geld

@@ -23,17 +23,16 @@ class ThreadExecutor final : public Executor {
     bool resumed = false;
     if (gel::has_checkpoint(ctx.out_dir)) {
       try {
-        if (ctx.log) ctx.log("info", "member " + std::to_string(ctx.member) + " resumes from its checkpoint");
+        ctx.log_member("info", "resumes from its checkpoint");
         result = gel::resume_compression(options);
         resumed = true;
-        if (result.resumed_from_previous_checkpoint && ctx.log)
-          ctx.log("warn", "member " + std::to_string(ctx.member) + ": last checkpoint unusable (" + result.checkpoint_problem +
-                              "); went on from the one before it");
+        if (result.resumed_from_previous_checkpoint)
+          ctx.log_member("warn", "last checkpoint unusable (" + result.checkpoint_problem + "); went on from the one before it");
       } catch (const gel::StabilityError&) {
         throw;
       } catch (const std::exception& e) {
         // A checkpoint that cannot be read: the run is deterministic, so start it again.
-        if (ctx.log) ctx.log("warn", std::string("checkpoint unusable (") + e.what() + "); starting the member again");
+        ctx.log_member("warn", std::string("checkpoint unusable (") + e.what() + "); starting again");
       }
     }
     if (!resumed) result = gel::run_compression(ctx.scene, options);

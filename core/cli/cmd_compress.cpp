@@ -37,6 +37,7 @@
 #include "gel/configuration.hpp"
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
+#include "gel/progress_file.hpp"
 #include "gel/run_directory.hpp"
 
 namespace {
@@ -159,51 +160,6 @@ gel::v1::Scene build_scene(const CompressArgs& args) {
   return scene;
 }
 
-// One JSON object per line, flushed at once: a follower (the Slurm executor) reads whole lines.
-class ProgressFile {
- public:
-  explicit ProgressFile(const std::string& path) {
-    if (path.empty()) return;
-    // Usually inside the run's own --out directory, which does not exist yet.
-    const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-    std::error_code error;
-    if (!parent.empty()) std::filesystem::create_directories(parent, error);
-    out_.open(path, std::ios::app);
-    if (!out_) throw gel::InvalidArgument("--progress-file", "cannot open '" + path + "' for appending");
-  }
-  void write(const nlohmann::json& line) {
-    if (!out_.is_open()) return;
-    const std::string text = line.dump() + '\n';
-    std::lock_guard lock(mutex_);  // ensemble members write from their own threads
-    out_ << text;
-    out_.flush();
-  }
-  bool open() const { return out_.is_open(); }
-
- private:
-  std::ofstream out_;
-  std::mutex mutex_;
-};
-
-nlohmann::json events_json(const gel::v1::Events& e) {
-  return {{"normal", e.normal()}, {"sliding", e.sliding()}, {"rolling", e.rolling()}, {"created", e.created()}};
-}
-
-nlohmann::json progress_json(const gel::v1::Progress& p) {
-  nlohmann::json line = {{"type", "progress"},     {"phase", p.phase()},
-                         {"k", p.k()},             {"k_total", p.k_total()},
-                         {"phi", p.phi()},         {"target_phi", p.target_phi()},
-                         {"P", p.p()},             {"events", events_json(p.events())},
-                         {"steps", p.steps()},     {"elapsed_seconds", p.elapsed_seconds()},
-                         {"remaining_seconds", p.remaining_seconds()}};
-  if (p.relax_iterations() > 0 || p.residual_force() > 0) {
-    line["residual_force"] = p.residual_force();
-    line["residual_target"] = p.residual_target();
-    line["relax_iterations"] = p.relax_iterations();
-  }
-  return line;
-}
-
 std::string progress_text(const gel::v1::Progress& p) {
   // Quasi-static runs also show the relaxation converging.
   char relaxation[96] = "";
@@ -320,7 +276,7 @@ int run_ensemble(const CompressArgs& args) {
   const int jobs = std::min<int>(static_cast<int>(seeds.size()),
                                  args.jobs > 0 ? args.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
 
-  ProgressFile progress_file(args.progress_file);
+  gel::ProgressFile progress_file(args.progress_file);
   std::signal(SIGINT, request_stop);
   std::signal(SIGTERM, request_stop);
   std::mutex print_mutex;
@@ -346,16 +302,11 @@ int run_ensemble(const CompressArgs& args) {
       options.trajectory_every = args.trajectory_every;
       options.trajectory_path = trajectory_path(args, options.out_dir);
       options.on_progress = [&, seed, prefix](const gel::v1::Progress& p) {
-        nlohmann::json line = progress_json(p);
-        line["seed"] = seed;
-        progress_file.write(line);
+        progress_file.progress(p, seed);
         print(prefix + progress_text(p));
       };
       options.on_row = [&, seed, prefix](const gel::v1::CurveRow& row) {
-        nlohmann::json line = gel::curve_row_to_json(row);
-        line["type"] = "row";
-        line["seed"] = seed;
-        progress_file.write(line);
+        progress_file.row(row, seed);
         print(prefix + "equilibrium k " + std::to_string(row.k()) + ": phi " + std::to_string(row.phi()) + "  P " +
               std::to_string(row.p()) + (row.equilibrated() ? "" : "  (NOT equilibrated)"));
       };
@@ -373,18 +324,20 @@ int run_ensemble(const CompressArgs& args) {
       } catch (const gel::InvalidArgument& e) {
         outcome.exit_code = 2;
         outcome.error = e.what();
+        progress_file.failed(gel::RunFailure::kInvalidArgument, e.what(), e.field(), seed);
       } catch (const gel::StabilityError& e) {
         outcome.exit_code = 3;
         outcome.error = e.what();
+        progress_file.failed(gel::RunFailure::kInstability, e.what(), "", seed);
       } catch (const std::exception& e) {
         outcome.exit_code = 1;
         outcome.error = e.what();
+        progress_file.failed(gel::RunFailure::kError, e.what(), "", seed);
       }
       if (!outcome.error.empty()) {
-        progress_file.write({{"type", "failed"}, {"seed", seed}, {"error", outcome.error}});
         print(prefix + "failed: " + outcome.error);
       } else if (outcome.result.finished) {
-        progress_file.write({{"type", "done"}, {"seed", seed}, {"out", options.out_dir}, {"rows", outcome.result.curve.rows_size()}});
+        progress_file.done(options.out_dir, outcome.result.curve.rows_size(), seed);
         print(prefix + "done");
       }
     }
@@ -396,7 +349,7 @@ int run_ensemble(const CompressArgs& args) {
   int exit_code = 0;
   for (const auto& outcome : outcomes) exit_code = std::max(exit_code, outcome.exit_code);
   if (std::any_of(outcomes.begin(), outcomes.end(), [](const MemberOutcome& m) { return m.exit_code == 4; })) {
-    progress_file.write({{"type", "stopped"}, {"out", out}});
+    progress_file.stopped(out);
     std::cerr << "gelsim: stopped; resume with --resume " << out << "\n";
     return 4;
   }
@@ -446,7 +399,7 @@ int run_compress(const CompressArgs& args) {
     const std::string dir = args.resume->empty() ? args.out : *args.resume;
     if (!dir.empty() && std::filesystem::exists(std::filesystem::path(dir) / "ensemble.json")) return run_ensemble(args);
   }
-  ProgressFile progress_file(args.progress_file);
+  gel::ProgressFile progress_file(args.progress_file);
   const bool terminal = isatty(STDERR_FILENO) != 0;
   std::signal(SIGINT, request_stop);
   std::signal(SIGTERM, request_stop);
@@ -460,16 +413,14 @@ int run_compress(const CompressArgs& args) {
   options.trajectory_every = args.trajectory_every;
   options.trajectory_path = trajectory_path(args, options.out_dir);
   options.on_progress = [&](const gel::v1::Progress& p) {
-    progress_file.write(progress_json(p));
+    progress_file.progress(p);
     if (terminal)
       std::cerr << '\r' << progress_text(p) << "\033[K" << std::flush;
     else
       std::cerr << progress_text(p) << '\n';
   };
   options.on_row = [&](const gel::v1::CurveRow& row) {
-    nlohmann::json line = gel::curve_row_to_json(row);
-    line["type"] = "row";
-    progress_file.write(line);
+    progress_file.row(row);
     if (terminal) std::cerr << '\r' << "\033[K";
     std::cerr << "equilibrium k " << row.k() << ": phi " << row.phi() << "  P " << row.p()
               << (row.relax_iterations() > 0 ? "  residual " + std::to_string(row.residual_force()) + " F0" : "")
@@ -497,18 +448,18 @@ int run_compress(const CompressArgs& args) {
       result = gel::run_compression(scene, options, initial ? &*initial : nullptr);
     }
   } catch (const gel::InvalidArgument& e) {
-    progress_file.write({{"type", "failed"}, {"kind", "invalid_argument"}, {"field", e.field()}, {"error", e.what()}});
+    progress_file.failed(gel::RunFailure::kInvalidArgument, e.what(), e.field());
     throw;
   } catch (const gel::StabilityError& e) {
-    progress_file.write({{"type", "failed"}, {"kind", "instability"}, {"error", e.what()}});
+    progress_file.failed(gel::RunFailure::kInstability, e.what());
     throw;
   } catch (const std::exception& e) {
-    progress_file.write({{"type", "failed"}, {"kind", "error"}, {"error", e.what()}});
+    progress_file.failed(gel::RunFailure::kError, e.what());
     throw;
   }
   if (terminal) std::cerr << '\n';
   if (result.stopped) {
-    progress_file.write({{"type", "stopped"}, {"out", options.out_dir}, {"rows", result.curve.rows_size()}});
+    progress_file.stopped(options.out_dir, result.curve.rows_size());
     const bool resumable = !options.out_dir.empty() && gel::has_checkpoint(options.out_dir);
     std::cerr << "gelsim: stopped"
               << (resumable ? "; resume with --resume " + options.out_dir
@@ -516,7 +467,7 @@ int run_compress(const CompressArgs& args) {
               << "\n";
     return 4;
   }
-  progress_file.write({{"type", "done"}, {"out", options.out_dir}, {"rows", result.curve.rows_size()}});
+  progress_file.done(options.out_dir, result.curve.rows_size());
   if (args.json)
     std::cout << gel::curve_to_json(result.curve).dump() << "\n";
   else

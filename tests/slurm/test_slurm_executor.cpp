@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "gel/curve_io.hpp"
+#include "gel/progress_file.hpp"
 #include "slurm_executor.hpp"
 
 namespace fs = std::filesystem;
@@ -121,8 +122,8 @@ TEST(SlurmPieces, LineFollowerWaitsForNewlinesAndRestartsOnTruncation) {
 }
 
 TEST(SlurmPieces, ParsesProgressRowsAndOutcomes) {
-  using geld::slurm::ProgressLine;
-  auto p = geld::slurm::parse_progress_line(
+  using gel::ProgressLine;
+  auto p = gel::parse_progress_line(
       R"({"type":"progress","progress":{"k":2,"kTotal":5,"phi":0.3,"target_phi":0.31,"remainingSeconds":-1,"phase":"compressing"}})");
   EXPECT_EQ(p.kind, ProgressLine::Progress);
   EXPECT_EQ(p.progress.k(), 2);
@@ -130,7 +131,7 @@ TEST(SlurmPieces, ParsesProgressRowsAndOutcomes) {
   EXPECT_DOUBLE_EQ(p.progress.target_phi(), 0.31);
   EXPECT_EQ(p.progress.phase(), "compressing");
   // What gelsim compress writes: flat, "P" for the pressure.
-  p = geld::slurm::parse_progress_line(
+  p = gel::parse_progress_line(
       R"({"type":"progress","phase":"compressing","k":1,"k_total":8,"phi":0.2,"target_phi":0.25,"P":0.125,)"
       R"("events":{"normal":3,"sliding":1,"rolling":2,"created":4},"steps":1000,"elapsed_seconds":1.5,"remaining_seconds":9.0})");
   EXPECT_EQ(p.kind, ProgressLine::Progress);
@@ -139,7 +140,7 @@ TEST(SlurmPieces, ParsesProgressRowsAndOutcomes) {
   EXPECT_EQ(p.progress.events().created(), 4);
   EXPECT_EQ(p.progress.steps(), 1000);
   // Flat progress, unknown fields ignored.
-  p = geld::slurm::parse_progress_line(R"({"type":"progress","k":3,"phi":0.4,"future_field":1})");
+  p = gel::parse_progress_line(R"({"type":"progress","k":3,"phi":0.4,"future_field":1})");
   EXPECT_EQ(p.kind, ProgressLine::Progress);
   EXPECT_EQ(p.progress.k(), 3);
 
@@ -153,7 +154,7 @@ TEST(SlurmPieces, ParsesProgressRowsAndOutcomes) {
   row.set_contact_number(3.25);
   row.mutable_ruptures()->set_normal(7);
   nlohmann::json line = {{"type", "row"}, {"row", gel::curve_row_to_json(row)}};
-  p = geld::slurm::parse_progress_line(line.dump());
+  p = gel::parse_progress_line(line.dump());
   EXPECT_EQ(p.kind, ProgressLine::Row);
   EXPECT_EQ(p.row.k(), 4);
   EXPECT_EQ(p.row.phi(), row.phi());  // bit for bit
@@ -161,26 +162,26 @@ TEST(SlurmPieces, ParsesProgressRowsAndOutcomes) {
   EXPECT_EQ(p.row.ruptures().normal(), 7);
   nlohmann::json flat = gel::curve_row_to_json(row);  // what gelsim compress writes
   flat["type"] = "row";
-  p = geld::slurm::parse_progress_line(flat.dump());
+  p = gel::parse_progress_line(flat.dump());
   EXPECT_EQ(p.kind, ProgressLine::Row);
   EXPECT_EQ(p.row.phi(), row.phi());
   EXPECT_EQ(p.row.p_bot(), 0.5);
-  p = geld::slurm::parse_progress_line(R"({"type":"row","k":5,"phi":0.5,"pTop":1.5,"contact_number":2})");
+  p = gel::parse_progress_line(R"({"type":"row","k":5,"phi":0.5,"pTop":1.5,"contact_number":2})");
   EXPECT_EQ(p.kind, ProgressLine::Row);
   EXPECT_EQ(p.row.k(), 5);
   EXPECT_DOUBLE_EQ(p.row.p_top(), 1.5);
   EXPECT_DOUBLE_EQ(p.row.contact_number(), 2.0);
 
-  EXPECT_EQ(geld::slurm::parse_progress_line(R"({"type":"done"})").kind, ProgressLine::Done);
-  p = geld::slurm::parse_progress_line(R"({"type":"failed","kind":"instability","error":"boom"})");
+  EXPECT_EQ(gel::parse_progress_line(R"({"type":"done"})").kind, ProgressLine::Done);
+  p = gel::parse_progress_line(R"({"type":"failed","kind":"instability","error":"boom"})");
   EXPECT_EQ(p.kind, ProgressLine::Failed);
   EXPECT_EQ(p.error, "numerical instability: boom");  // as gelsim and the threads executor say it
-  p = geld::slurm::parse_progress_line(R"({"type":"failed","kind":"error","error":"disk on fire"})");
+  p = gel::parse_progress_line(R"({"type":"failed","kind":"error","error":"disk on fire"})");
   EXPECT_EQ(p.error, "disk on fire");
-  EXPECT_EQ(geld::slurm::parse_progress_line(R"({"type":"log","message":"x"})").kind, ProgressLine::Other);
-  EXPECT_EQ(geld::slurm::parse_progress_line(R"({"type":"stopped","out":"d","rows":2})").kind, ProgressLine::Other);
-  EXPECT_THROW(geld::slurm::parse_progress_line("{\"type\":\"row\""), std::runtime_error);
-  EXPECT_THROW(geld::slurm::parse_progress_line(R"({"type":"row","k":"many"})"), std::runtime_error);
+  EXPECT_EQ(gel::parse_progress_line(R"({"type":"log","message":"x"})").kind, ProgressLine::Other);
+  EXPECT_EQ(gel::parse_progress_line(R"({"type":"stopped","out":"d","rows":2})").kind, ProgressLine::Other);
+  EXPECT_THROW(gel::parse_progress_line("{\"type\":\"row\""), std::runtime_error);
+  EXPECT_THROW(gel::parse_progress_line(R"({"type":"row","k":"many"})"), std::runtime_error);
 }
 
 TEST(SlurmPieces, OptionsFromSettings) {
