@@ -42,8 +42,4 @@ class GelcoreAdapter {
 
 std::shared_ptr<GelcoreAdapter> make_gelcore_adapter();
 
-// The earlier names, which said "engine" of what is not one; the service tests still use them.
-using Engine = GelcoreAdapter;
-inline std::shared_ptr<GelcoreAdapter> make_compression_engine() { return make_gelcore_adapter(); }
-
 }  // namespace geld
