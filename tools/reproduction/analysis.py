@@ -133,18 +133,13 @@ def first_rows_of_regimes(ensemble):
     keys = {"elastic": "elastic", "single-mode-plastic": "single_mode_plastic",
             "multi-mode-plastic": "multi_mode_plastic"}
     first = {}
-    for row in rows_of(ensemble):
-        regime = keys.get(row.get("regime"))
-        if regime and regime not in first:
-            first[regime] = int(row["k"])
-    if first:
-        return first
-    for interval in intervals_of(ensemble):
-        regime = keys.get(interval.get("regime"))
-        if regime and regime not in first:
-            first[regime] = int(interval["k"])
-    if first:
-        return first
+    for source in (rows_of(ensemble), intervals_of(ensemble)):
+        for item in source:
+            regime = keys.get(item.get("regime"))
+            if regime and regime not in first:
+                first[regime] = int(item["k"])
+        if first:
+            return first
     regimes = as_dict(ensemble.get("regimes"))
     e2p = value_of(regimes.get("elastic_to_plastic_phi"))
     s2m = value_of(regimes.get("single_to_multi_mode_phi"))
