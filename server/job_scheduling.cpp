@@ -36,8 +36,6 @@ std::shared_ptr<JobManager::Live> JobManager::claim_member(int& member) {
       live->member_finished.assign(static_cast<std::size_t>(members), 0);
       for (const int done : store_->finished_members(id))
         if (done >= 0 && done < members) live->member_finished[static_cast<std::size_t>(done)] = 1;
-      // Stores written before members ran in parallel only know the member being run.
-      for (int m = 0; m < std::min(live->job.member(), members); ++m) live->member_finished[static_cast<std::size_t>(m)] = 1;
     }
     const auto skip_finished = [&] {
       while (live->next_member < members && live->member_finished[static_cast<std::size_t>(live->next_member)])
@@ -249,7 +247,7 @@ bool JobManager::record_outcome(const std::shared_ptr<Live>& live, int member, c
     if (outcome.kind != MemberOutcome::kFinished) return last_running;
     live->member_finished[static_cast<std::size_t>(member)] = 1;
     live->job.set_rows(store_->row_count(live->job.id()));
-    // The lowest unfinished member: where a geld without member_finished would resume.
+    // The lowest unfinished member, as the store reads it back from member_finished.
     int lowest = 0;
     while (lowest < static_cast<int>(live->member_finished.size()) && live->member_finished[static_cast<std::size_t>(lowest)]) ++lowest;
     live->job.set_member(lowest);
@@ -265,10 +263,6 @@ void JobManager::settle_member(const std::shared_ptr<Live>& live, int member, co
     id = live->job.id();
   }
   if (outcome.kind == MemberOutcome::kFinished) {
-    {
-      std::lock_guard lock(live->mutex);
-      store_->set_member(id, live->job.member());
-    }
     finish_if_done(live);
     return;
   }

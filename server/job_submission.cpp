@@ -187,7 +187,6 @@ gel::v1::SubmitJobResponse JobManager::submit(const gel::v1::SubmitJobRequest& r
   const std::string cache_key = gel::fnv1a_hex(adapter_->scene_json(keyed) + "|" + seeds_text + "|" + version);
   const double no_number = std::numeric_limits<double>::quiet_NaN();
   prepared.parameters.emplace_back(kCacheKeyParameter, cache_key, no_number);
-  prepared.parameters.emplace_back(kProgramVersionParameter, version, no_number);
   if (!request.rerun()) {
     if (const auto earlier = store_->find_job_by_parameter(kCacheKeyParameter, cache_key, gel::v1::JOB_STATE_SUCCEEDED)) {
       // Labels and name are metadata: the job takes them, so `list --label` finds it for this

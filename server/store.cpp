@@ -169,6 +169,26 @@ CREATE TABLE study_analyses (
   PRIMARY KEY (study_id, options)
 );
 )sql",
+    // 6 -> 7: compatibility state retired, nothing lost.
+    // jobs.member was "the member being run" before members ran in parallel (v4), then kept as the
+    // lowest unfinished one, which member_finished already says: a job that only has the column
+    // gets the members below it recorded as finished (when is not known: 0), and the column goes.
+    // The program that accepted a job moves from the parameter row run.program_version to a
+    // column of jobs, where the study's already is (QueryCurves filters on it by the same name).
+    R"sql(
+WITH RECURSIVE below(job_id, member, members) AS (
+  SELECT id, 0, min(member, max(1, json_array_length(seeds))) FROM jobs WHERE member > 0
+  UNION ALL
+  SELECT job_id, member + 1, members FROM below WHERE member + 1 < members
+)
+INSERT OR IGNORE INTO member_finished(job_id, member, finished_ms) SELECT job_id, member, 0 FROM below;
+ALTER TABLE jobs DROP COLUMN member;
+ALTER TABLE jobs ADD COLUMN program_version TEXT NOT NULL DEFAULT '';
+UPDATE jobs SET program_version =
+  (SELECT max(value_text) FROM parameters WHERE job_id = jobs.id AND name = 'run.program_version')
+  WHERE id IN (SELECT job_id FROM parameters WHERE name = 'run.program_version');
+DELETE FROM parameters WHERE name = 'run.program_version';
+)sql",
 };
 static_assert(sizeof(kMigrations) / sizeof(kMigrations[0]) == Store::kSchemaVersion);
 

@@ -2,11 +2,11 @@
 // The daemon's durable state: one SQLite file in WAL mode. Every write is a committed
 // transaction before the call returns, so anything acknowledged to a client survives a crash.
 //
-// Schema (version 6; migrations run from the `schema_version` table on open):
+// Schema (version 7; migrations run from the `schema_version` table on open):
 //   schema_version(version)                          one row: the schema's version
 //   jobs(seq PK autoincrement, id UNIQUE, name, state, scene BLOB (resolved gel.v1.Scene),
 //        scene_json, seeds (JSON array), particles, bond_preset, created_ms, started_ms,
-//        finished_ms, error, member, out_dir)
+//        finished_ms, error, out_dir, program_version)
 //   job_labels(job_id, key, value)                   PK (job_id, key)
 //   states(id PK, job_id, state, at_ms, message)     every state change, in order
 //   parameters(job_id, name, value_text, value_num)  the resolved scene flattened to dotted
@@ -20,7 +20,8 @@
 //   member_runs(job_id, member, seed, executor, handle, updated_ms)  PK (job_id, member); an
 //                                                    executor's handle (e.g. Slurm job id)
 //   member_finished(job_id, member, finished_ms)     PK (job_id, member); members that finished
-//                                                    (members of a job run in parallel)
+//                                                    (members of a job run in parallel); a job's
+//                                                    `member` is the lowest one not here
 //   studies(seq PK autoincrement, id UNIQUE, name, preset, fidelity, request BLOB
 //           (gel.v1.SubmitStudyRequest, preset expanded), created_ms, program_version)
 //   study_labels(study_id, key, value)               PK (study_id, key)
@@ -86,7 +87,7 @@ struct StoredRow {
 
 class Store {
  public:
-  static constexpr int kSchemaVersion = 6;
+  static constexpr int kSchemaVersion = 7;
 
   explicit Store(const std::string& path);
   ~Store();
@@ -102,7 +103,6 @@ class Store {
 
   void set_state(const std::string& id, gel::v1::JobState state, const std::string& message,
                  std::int64_t now_ms);
-  void set_member(const std::string& id, int member);
   void put_row(const std::string& id, int member, std::uint64_t seed, const gel::v1::CurveRow& row,
                std::int64_t now_ms);
   // Replaces a member's rows by a finished curve's (one transaction).
@@ -141,7 +141,6 @@ class Store {
   std::vector<StoredRow> rows(const std::string& id);                 // by member, k
   int row_count(const std::string& id);
   std::vector<gel::v1::LogLine> logs(const std::string& id, std::int64_t after_id, int limit);
-  std::vector<std::pair<std::string, std::int64_t>> states(const std::string& id);  // (state, at_ms)
 
   // Studies. insert_study assigns the id ("study-000001") and stores the request and labels;
   // the jobs are added one by one as they are submitted. Read back, a study holds its stored

@@ -2,6 +2,7 @@
 // a finished member's whole curve, and QueryCurves' search over the flattened parameters.
 #include <cstdlib>
 
+#include "job_parameters.hpp"
 #include "store.hpp"
 #include "store_sql.hpp"
 
@@ -86,6 +87,14 @@ std::vector<std::string> Store::query_curves(const CurveFilter& filter) {
     args.push_back({Arg::kText, v, 0});
   }
   for (const auto& p : filter.parameters) {
+    if (p.name == kProgramVersionParameter) {
+      // A column of jobs (schema 7), filtered as its parameter row was: the text, and a version
+      // has no number, so a bound matches no job.
+      sql += p.equals.empty() ? " AND program_version <> ''" : " AND program_version = ?";
+      if (!p.equals.empty()) args.push_back({Arg::kText, p.equals, 0});
+      if (p.min || p.max) sql += " AND 0";
+      continue;
+    }
     sql += " AND id IN (SELECT job_id FROM parameters WHERE name = ?";
     args.push_back({Arg::kText, p.name, 0});
     if (!p.equals.empty()) {

@@ -35,15 +35,16 @@ std::string Store::insert_job(gel::v1::Job& job, const std::string& scene_json,
   job.scene().SerializeToString(&blob);
   {
     Stmt ins(db_,
-             "INSERT INTO jobs(id, name, state, scene, scene_json, seeds, particles, bond_preset, created_ms) "
-             "VALUES ('', ?, 'queued', ?, ?, ?, ?, ?, ?)");
+             "INSERT INTO jobs(id, name, state, scene, scene_json, seeds, particles, bond_preset, created_ms, "
+             "program_version) VALUES ('', ?, 'queued', ?, ?, ?, ?, ?, ?, ?)");
     ins.bind(1, job.name())
         .bind_blob(2, blob)
         .bind(3, scene_json)
         .bind(4, seeds.dump())
         .bind(5, static_cast<std::int64_t>(job.particles()))
         .bind(6, job.bond_preset())
-        .bind(7, job.created_unix_ms());
+        .bind(7, job.created_unix_ms())
+        .bind(8, job.program_version());
     ins.run();
   }
   std::int64_t seq = sqlite3_last_insert_rowid(db_);
@@ -95,12 +96,6 @@ void Store::set_state(const std::string& id, gel::v1::JobState state, const std:
   tx.commit();
 }
 
-void Store::set_member(const std::string& id, int member) {
-  std::lock_guard lock(mutex_);
-  Stmt up(db_, "UPDATE jobs SET member = ? WHERE id = ?");
-  up.bind(1, member).bind(2, id).run();
-}
-
 void Store::set_member_handle(const std::string& id, int member, std::uint64_t seed, const std::string& executor,
                               const std::string& handle, std::int64_t now_ms) {
   std::lock_guard lock(mutex_);
@@ -144,7 +139,7 @@ std::int64_t Store::add_log(const std::string& job_id, const std::string& level,
 namespace {
 constexpr const char* kJobColumns =
     "seq, id, name, state, scene, seeds, particles, bond_preset, created_ms, started_ms, finished_ms, error, "
-    "member, out_dir";
+    "out_dir, program_version";
 
 gel::v1::Job job_from_row(const Stmt& q) {
   gel::v1::Job job;
@@ -162,19 +157,21 @@ gel::v1::Job job_from_row(const Stmt& q) {
   job.set_started_unix_ms(q.i64(9));
   job.set_finished_unix_ms(q.i64(10));
   job.set_error(q.text(11));
-  job.set_member(static_cast<int>(q.i64(12)));
-  job.set_out_dir(q.text(13));
+  job.set_out_dir(q.text(12));
+  job.set_program_version(q.text(13));
   return job;
 }
 
-void fill_labels_and_rows(sqlite3* db, gel::v1::Job& job) {
+void fill_labels_member_and_rows(sqlite3* db, gel::v1::Job& job) {
   Stmt lab(db, "SELECT key, value FROM job_labels WHERE job_id = ?");
   lab.bind(1, job.id());
   while (lab.step()) (*job.mutable_labels())[lab.text(0)] = lab.text(1);
-  // Kept as a parameter (run.program_version), so no schema change was needed for it.
-  Stmt version(db, "SELECT value_text FROM parameters WHERE job_id = ? AND name = 'run.program_version'");
-  version.bind(1, job.id());
-  if (version.step()) job.set_program_version(version.text(0));
+  // The lowest member not finished: the first gap in member_finished (ascending).
+  Stmt finished(db, "SELECT member FROM member_finished WHERE job_id = ? ORDER BY member");
+  finished.bind(1, job.id());
+  int lowest = 0;
+  while (finished.step() && finished.i64(0) == lowest) ++lowest;
+  job.set_member(lowest);
   Stmt cnt(db, "SELECT count(*) FROM curve_rows WHERE job_id = ?");
   cnt.bind(1, job.id());
   if (cnt.step()) job.set_rows(static_cast<int>(cnt.i64(0)));
@@ -187,7 +184,7 @@ gel::v1::Job Store::read_job_locked(const std::string& id, bool& found) {
   found = q.step();
   if (!found) return {};
   gel::v1::Job job = job_from_row(q);
-  fill_labels_and_rows(db_, job);
+  fill_labels_member_and_rows(db_, job);
   return job;
 }
 
@@ -269,7 +266,7 @@ std::vector<std::pair<std::int64_t, gel::v1::Job>> Store::list_jobs(const JobFil
   for (std::size_t i = 0; i < args.size(); ++i) q.bind(static_cast<int>(i + 1), args[i]);
   std::vector<std::pair<std::int64_t, gel::v1::Job>> out;
   while (q.step()) out.emplace_back(q.i64(0), job_from_row(q));
-  for (auto& [seq, job] : out) fill_labels_and_rows(db_, job);
+  for (auto& [seq, job] : out) fill_labels_member_and_rows(db_, job);
   return out;
 }
 
@@ -295,15 +292,6 @@ std::vector<gel::v1::LogLine> Store::logs(const std::string& id, std::int64_t af
     line.set_message(q.text(3));
     out.push_back(std::move(line));
   }
-  return out;
-}
-
-std::vector<std::pair<std::string, std::int64_t>> Store::states(const std::string& id) {
-  std::lock_guard lock(mutex_);
-  Stmt q(db_, "SELECT state, at_ms FROM states WHERE job_id = ? ORDER BY id");
-  q.bind(1, id);
-  std::vector<std::pair<std::string, std::int64_t>> out;
-  while (q.step()) out.emplace_back(q.text(0), q.i64(1));
   return out;
 }
 

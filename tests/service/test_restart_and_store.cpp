@@ -1,6 +1,5 @@
 // Restart and the store: shutdown and the next start resume what was running, one geld per data
-// dir, writes that fail in the kernel, and the SQLite schema and its migrations.
-#include <sqlite3.h>
+// dir, writes that fail in the kernel (the schema and its migrations: test_store_schema.cpp).
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -14,7 +13,6 @@
 #include <thread>
 #include <vector>
 
-#include "store.hpp"
 #include "service_fixture.hpp"
 
 namespace geld_test {
@@ -312,106 +310,6 @@ TEST(Daemon, ASecondDaemonOnTheSameDataDirOrPortRefusesToStart) {
   auto next = make(dir.path(), "127.0.0.1:0");
   EXPECT_NO_THROW(next->start());
   next->shutdown();
-}
-
-TEST(Store, MigratesFromAnOlderSchemaVersion) {
-  TempDir dir;
-  const std::string path = (fs::path(dir.path()) / "geld.sqlite").string();
-  std::string id;
-  {
-    geld::Store store(path);
-    EXPECT_EQ(store.schema_version(), geld::Store::kSchemaVersion);
-    gel::v1::Job job;
-    job.set_name("old");
-    job.add_seeds(7);
-    job.set_particles(64);
-    job.set_created_unix_ms(1);
-    // Stored as before version 5: the submitted scene's seed, not the member's.
-    id = store.insert_job(job, "{}", {{"generator.seed", "1", 1.0}, {"generator.lx", "30", 30.0}});
-  }
-  // Turn the file into a version 1 database: no indexes (v2), no member_runs table (v3), no
-  // member_finished table (v4), no study tables (v6).
-  {
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    const char* sql =
-        "DROP TABLE study_analyses; DROP TABLE study_jobs; DROP TABLE study_labels; DROP TABLE studies; "
-        "DROP TABLE member_finished; DROP TABLE member_runs; DROP INDEX jobs_state; DROP INDEX jobs_name; DROP INDEX job_labels_kv; "
-        "DROP INDEX parameters_name; DROP INDEX states_job; DROP INDEX logs_job; DROP INDEX events_job; "
-        "UPDATE schema_version SET version = 1;";
-    char* err = nullptr;
-    ASSERT_EQ(sqlite3_exec(db, sql, nullptr, nullptr, &err), SQLITE_OK) << (err ? err : "");
-    sqlite3_close(db);
-  }
-  {
-    geld::Store store(path);
-    EXPECT_EQ(store.schema_version(), geld::Store::kSchemaVersion);
-    auto job = store.get_job(id);
-    ASSERT_TRUE(job.has_value());
-    EXPECT_EQ(job->name(), "old");
-    EXPECT_EQ(job->seeds(0), 7u);
-    store.set_member_handle(id, 0, 7, "slurm", "1234:0", 2);
-    EXPECT_EQ(store.member_handle(id, 0), "1234:0");
-    EXPECT_EQ(store.member_handle(id, 1), "");
-    EXPECT_TRUE(store.finished_members(id).empty());
-    store.set_member_finished(id, 0, 3);
-    EXPECT_EQ(store.finished_members(id), std::vector<int>{0});
-    // Version 6: studies can be stored in the migrated file.
-    gel::v1::Study study;
-    study.set_name("migrated");
-    study.mutable_request()->set_preset("quick");
-    const std::string study_id = store.insert_study(study);
-    store.add_study_job(study_id, 0, "bond1", id, false);
-    ASSERT_TRUE(store.get_study(study_id).has_value());
-    EXPECT_EQ(store.get_study(study_id)->jobs(0).job_id(), id);
-  }
-  // Version 5 holds the members' seeds as generator.seed (7), not the scene's (1); others stay.
-  {
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    sqlite3_stmt* stmt = nullptr;
-    ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT name, value_text FROM parameters ORDER BY name, value_text", -1, &stmt, nullptr), SQLITE_OK);
-    std::vector<std::string> rows;
-    while (sqlite3_step(stmt) == SQLITE_ROW)
-      rows.push_back(std::string(reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0))) + "=" +
-                     reinterpret_cast<const char*>(sqlite3_column_text(stmt, 1)));
-    sqlite3_finalize(stmt);
-    sqlite3_close(db);
-    EXPECT_EQ(rows, (std::vector<std::string>{"generator.lx=30", "generator.seed=7"}));
-  }
-  // A newer schema than this geld knows is refused.
-  {
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "UPDATE schema_version SET version = 99", nullptr, nullptr, nullptr), SQLITE_OK);
-    sqlite3_close(db);
-    EXPECT_THROW(geld::Store store(path), geld::StoreError);
-  }
-}
-
-TEST(Store, WalModeAndSchemaTables) {
-  TempDir dir;
-  const std::string path = (fs::path(dir.path()) / "geld.sqlite").string();
-  geld::Store store(path);
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-  sqlite3_stmt* stmt = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db, "PRAGMA journal_mode", -1, &stmt, nullptr), SQLITE_OK);
-  ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
-  EXPECT_EQ(std::string(reinterpret_cast<const char*>(sqlite3_column_text(stmt, 0))), "wal");
-  sqlite3_finalize(stmt);
-  for (const char* table : {"schema_version", "jobs", "job_labels", "states", "parameters", "curve_rows", "events",
-                            "logs", "member_runs", "member_finished", "studies", "study_labels", "study_jobs",
-                            "study_analyses"}) {
-    ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = ?", -1, &stmt,
-                                 nullptr),
-              SQLITE_OK);
-    sqlite3_bind_text(stmt, 1, table, -1, SQLITE_STATIC);
-    ASSERT_EQ(sqlite3_step(stmt), SQLITE_ROW);
-    EXPECT_EQ(sqlite3_column_int(stmt, 0), 1) << table;
-    sqlite3_finalize(stmt);
-  }
-  sqlite3_close(db);
 }
 
 }  // namespace
