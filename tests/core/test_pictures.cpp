@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -212,6 +213,45 @@ TEST(Pictures, KeyLeavesThePlotAreaWhenDataFillEveryCorner) {
   EXPECT_EQ(script.find("set key inside"), std::string::npos) << script;
   EXPECT_NE(script.find("set key outside"), std::string::npos) << script;
   EXPECT_NE(file_text(dir + "/k.svg").find("<svg"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Pictures, VerticalLineLabelsSitAboveTheFrameWhereNoPointIs) {
+  if (find_gnuplot().empty()) GTEST_SKIP() << "gnuplot is not installed";
+  // Points along the whole height beside both lines: inside the frame every place a label could
+  // take along a line covers some of them. The two lines are closer than a label is long, so
+  // the second label goes up a row instead of overprinting the first.
+  PlotFigure f;
+  f.width = 320, f.height = 240;
+  PlotSeries dense{"data", {}, {}, {}, "points"};
+  for (int i = 0; i <= 40; ++i)
+    for (double x : {0.43, 0.47, 0.53, 0.57}) dense.x.push_back(x), dense.y.push_back(i / 40.0);
+  f.series.push_back(dense);
+  f.series.push_back({"edges", {0.0, 1.0}, {0.0, 1.0}, {}, "points"});
+  f.vertical_lines = {{0.45, "single-mode plastic"}, {0.55, "multi-mode plastic"}};
+  const std::string dir = temp_dir("vertical_labels");
+  render_plot(f, dir + "/v.png");
+  const std::string script = file_text(dir + "/gnuplot/v.gp");
+  std::vector<double> row_offsets;
+  std::istringstream lines(script);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("set label", 0) != 0) continue;
+    // set label N "TEXT" at X, graph Y ... offset DX,DY ...
+    const std::size_t at = line.find("\" at ");
+    ASSERT_NE(at, std::string::npos) << line;
+    double x = 0, y = 0, dx = 0, dy = 0;
+    ASSERT_EQ(std::sscanf(line.c_str() + at, "\" at %lf, graph %lf", &x, &y), 2) << line;
+    const std::size_t offset = line.find(" offset ");
+    ASSERT_NE(offset, std::string::npos) << line;
+    ASSERT_EQ(std::sscanf(line.c_str() + offset, " offset %lf,%lf", &dx, &dy), 2) << line;
+    EXPECT_GE(y, 1.0) << "label inside the frame, where it can cover a point: " << line;
+    EXPECT_GT(dy, 0.0) << line;
+    row_offsets.push_back(dy);
+  }
+  ASSERT_EQ(row_offsets.size(), 2u) << script;
+  EXPECT_NE(row_offsets[0], row_offsets[1]) << "overlapping labels on one row";
+  EXPECT_NE(script.find("set tmargin"), std::string::npos) << "no room above the frame";
+  EXPECT_GT(std::filesystem::file_size(dir + "/v.png"), 1000u);
   std::filesystem::remove_all(dir);
 }
 

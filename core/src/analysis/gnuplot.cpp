@@ -171,14 +171,12 @@ bool segment_meets_box(double ax, double ay, double bx, double by, const Box& bo
 }
 
 // What is drawn inside the plot area, in plot-area fractions: lines (a point is a line of
-// length zero) and boxes (labels), so that the key and the labels can be put where nothing is.
+// length zero), so that the key can be put where nothing is.
 struct Obstacles {
   std::vector<Box> lines;  // from (x0, y0) to (x1, y1)
-  std::vector<Box> boxes;
   int count_in(const Box& box) const {
     int n = 0;
     for (const auto& l : lines) n += segment_meets_box(l.x0, l.y0, l.x1, l.y1, box);
-    for (const auto& b : boxes) n += b.x0 < box.x1 && box.x0 < b.x1 && b.y0 < box.y1 && box.y0 < b.y1;
     return n;
   }
 };
@@ -358,35 +356,33 @@ void render_plot(const PlotFigure& figure, const std::string& path) {
   if (has_points) {
     gp << "set xrange [" << x_axis.lo << ":" << x_axis.hi << "]\nset yrange [" << y_axis.lo << ":" << y_axis.hi << "]\n";
     gp << tick_commands("x", x_axis) << tick_commands("y", y_axis);
-    // Vertical lines, each labelled along itself, beside it at the end (bottom or top) and on
-    // the side (left or right) with the least data.
-    const double label_thickness = 1.6 * page.font_points / page.plot_width;
+    // Vertical lines, each labelled above the frame, outside the plot area where no point or bar
+    // can be: beside its line, on the right unless the text would run past the frame; a label
+    // that would overlap an earlier one goes up a row.
     std::vector<Box> vertical_lines;
+    std::vector<std::vector<std::pair<double, double>>> label_rows;  // per row, the labels' [x0, x1]
     for (const auto& [x, label] : figure.vertical_lines) {
       if (!std::isfinite(x) || (figure.log_x && x <= 0) || x <= x_axis.lo || x >= x_axis.hi) continue;
       const double fx = x_axis.fraction(x);
-      const double length = std::min(0.9, (visible_length(label) * page.char_width + page.font_points) / page.plot_height);
-      struct Place {
-        bool top, right;
-        Box box;
-      };
-      const Place places[] = {{false, false, {fx - label_thickness, 0.0, fx, length}},
-                              {true, false, {fx - label_thickness, 1.0 - length, fx, 1.0}},
-                              {false, true, {fx, 0.0, fx + label_thickness, length}},
-                              {true, true, {fx, 1.0 - length, fx + label_thickness, 1.0}}};
-      const Place* best = &places[0];
-      for (const auto& place : places)
-        if (obstacles.count_in(place.box) < obstacles.count_in(best->box)) best = &place;
-      obstacles.boxes.push_back(best->box);
+      const double width = (visible_length(label) + 1.0) * page.char_width / page.plot_width;
+      const bool right = fx + width <= 1.0;
+      const double x0 = right ? fx : fx - width, x1 = x0 + width;
+      std::size_t row = 0;
+      auto overlaps = [&](const std::pair<double, double>& other) { return x0 < other.second && other.first < x1; };
+      while (row < label_rows.size() && std::any_of(label_rows[row].begin(), label_rows[row].end(), overlaps)) ++row;
+      if (row == label_rows.size()) label_rows.emplace_back();
+      label_rows[row].push_back({x0, x1});
       vertical_lines.push_back({fx, 0.0, fx, 1.0});
       gp << "set arrow " << arrow << " from " << x << ", graph 0 to " << x
          << ", graph 1 nohead back dt 2 lw 1.5 lc rgb \"#666666\"\n";
-      // Text is centred on its anchor across its baseline: the offset moves it clear of the line.
-      gp << "set label " << arrow << " " << quoted(label) << " at " << x
-         << (best->top ? ", graph 0.97 rotate by 90 right" : ", graph 0.03 rotate by 90 left") << " offset "
-         << (best->right ? "1.2" : "-1.2") << ",0 textcolor rgb \"#444444\"\n";
+      // Text is centred on its anchor across its baseline: the offset lifts it clear of the frame.
+      gp << "set label " << arrow << " " << quoted(label) << " at " << x << ", graph 1 " << (right ? "left" : "right")
+         << " offset " << (right ? "0.3" : "-0.3") << "," << std::setprecision(3) << 0.8 + 1.2 * row
+         << std::setprecision(10) << " textcolor rgb \"#444444\"\n";
       ++arrow;
     }
+    // Room above the frame for the rows of labels (gnuplot's margins are in character heights).
+    if (!label_rows.empty()) gp << "set tmargin " << std::setprecision(3) << 1.2 * label_rows.size() + 1.0 << std::setprecision(10) << "\n";
     obstacles.lines.insert(obstacles.lines.end(), vertical_lines.begin(), vertical_lines.end());
 
     // The key: the first inside corner whose box nothing drawn reaches, else outside, right or

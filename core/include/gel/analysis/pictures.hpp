@@ -12,14 +12,15 @@
 // (or the box) in y, scaled so that the longer side has `size` pixels (PNG) or points (SVG, PDF).
 //
 // Plots: a figure is a set of series (lines, points, error bars) on linear or log axes plus
-// labelled vertical lines; it is written as NAME.dat (the data, one gnuplot index per series)
-// and NAME.gp (the script) into a `gnuplot/` folder next to the picture, the script naming both
-// files relative to that folder, so that `cd gnuplot && gnuplot NAME.gp` redraws the picture
-// wherever the folder has been copied, and gnuplot is run on the script (pngcairo, svg or
-// pdfcairo terminal). Titles and labels are gnuplot enhanced text: "P_y", "a^2", "φ^{4.14}",
-// "{/:Italic r}" (UTF-8 for Greek letters). The axis ranges are taken from the data (error bars
-// included), the key goes into an inside corner that no data, bar or vertical line reaches, or
-// outside the plot area when there is none. gnuplot is looked up on PATH; without it,
+// labelled vertical lines (each label above the frame, where it cannot cover a point); it is
+// written as NAME.dat (the data, one gnuplot index per series) and NAME.gp (the script) into a
+// `gnuplot/` folder next to the picture, the script naming both files relative to that folder,
+// so that `cd gnuplot && gnuplot NAME.gp` redraws the picture wherever the folder has been
+// copied, and gnuplot is run on the script (pngcairo, svg or pdfcairo terminal). Titles and
+// labels are gnuplot enhanced text: "P_y", "a^2", "φ^{4.14}", "{/:Italic r}" (UTF-8 for Greek
+// letters). The axis ranges are taken from the data (error bars included), the key goes into
+// an inside corner that no data, bar or vertical line reaches, or outside the plot area when
+// there is none. gnuplot is looked up on PATH; without it,
 // render_plot throws std::runtime_error saying so.
 #include <optional>
 #include <string>
