@@ -2,6 +2,7 @@
 // runs (docs/analysis.md). "analyse" spellings are accepted as aliases.
 //   gelsim analyze CONFIG... [--json] [--pixel 0.25] [--fit-range 2,10] [--window 0.1]
 //   gelsim analyze-run DIR... [--json] [--fit-range PHIMIN,PHIMAX] [--no-structure] [--include-unequilibrated]
+//     (DIR: a run's folder, or an ensemble's, which stands for its finished members: run_inputs.hpp)
 //   gelsim snapshot CONFIG --out file.png|file.svg|file.pdf [--xi] [--size 1200] [--no-bonds]
 #include <cstdio>
 #include <iostream>
@@ -18,6 +19,7 @@
 #include "gel/analysis/structure.hpp"
 #include "gel/configuration.hpp"
 #include "gel/errors.hpp"
+#include "run_inputs.hpp"
 
 namespace {
 
@@ -123,7 +125,7 @@ int run_analyze_run(const AnalyzeRunOptions& o) {
   if (!o.fit_range.empty()) std::tie(options.fit_phi_min, options.fit_phi_max) = parse_range("fit_range", o.fit_range);
   options.structures = !o.no_structure;
   options.include_unequilibrated = o.include_unequilibrated;
-  const gel::analysis::RunAnalysis run = gel::analysis::analyse_runs(o.dirs, options);
+  const gel::analysis::RunAnalysis run = gel::analysis::analyse_runs(gelsim::runs_of(o.dirs), options);
   if (o.json) {
     std::cout << gel::analysis::to_json(run).dump() << "\n";
     return 0;
@@ -170,7 +172,7 @@ const gelsim::Registrar analyze_run_registrar{
     [](CLI::App& sub) -> std::function<int()> {
       auto o = std::make_shared<AnalyzeRunOptions>();
       sub.alias("analyse-run");
-      sub.add_option("dir", o->dirs, "compression output directories (curve.json, snapshots/)")->required();
+      sub.add_option("dir", o->dirs, "compression output directories (curve.json, snapshots/), or an ensemble's folder (seed_<seed>/)")->required();
       sub.add_flag("--json", o->json, "print one JSON object");
       sub.add_option("--fit-range", o->fit_range, "PHIMIN,PHIMAX of the power-law and gel-point fits (default: all rows after k = 0)");
       sub.add_option("--r-fit-range", o->r_fit_range, "RMIN,RMAX [a] of the D_f fit of each snapshot (default 2,10)");

@@ -237,7 +237,7 @@ struct MemberOutcome {
 
 // Mean, standard deviation and equilibrated count of P per target, by the product's one ensemble
 // statistic (gel/analysis/ensemble_statistic.hpp: over the members that reached the row; the full
-// analysis of an ensemble is `gelsim analyze-run OUT/seed_*`).
+// analysis of an ensemble is `gelsim analyze-run OUT`).
 nlohmann::json ensemble_summary(const std::vector<MemberOutcome>& members) {
   std::vector<const gel::v1::Curve*> curves;
   for (const auto& m : members) curves.push_back(&m.result.curve);
@@ -369,7 +369,8 @@ int run_ensemble(const CompressArgs& args) {
                   row["P_mean"].get<double>(), row["P_std"].get<double>(), row["members"].get<int>(),
                   row["equilibrated"].get<int>());
     std::printf("P_mean, P_std: %s\n", gel::analysis::kEnsembleRule);
-    std::printf("members in %s/seed_<seed>; full analysis: gelsim analyze-run %s/seed_*\n", out.c_str(), out.c_str());
+    std::printf("members in %s/seed_<seed>; full analysis: gelsim analyze-run %s; pictures: gelsim plot %s\n", out.c_str(),
+                out.c_str(), out.c_str());
   }
   return exit_code;
 }

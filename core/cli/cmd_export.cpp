@@ -3,6 +3,7 @@
 //   gelsim export runs/b1 --out runs/b1/run.gsd          # every equilibrium snapshot of a run
 //   gelsim export runs/b1 --out frames/run.pvd           # VTU frames + a ParaView collection
 //   gelsim export a.pb b.pb --format xyz --out both.xyz  # several files, in the order given
+//   gelsim export runs/ens --out frames/rows.gsd         # an ensemble: frames/rows_seed_<seed>.gsd per member
 // A run directory contributes one frame per curve row that has a snapshot, with k, phi, P and
 // the steps taken; a configuration file contributes one frame at step 0.
 #include <filesystem>
@@ -16,6 +17,7 @@
 #include "gel/curve_io.hpp"
 #include "gel/errors.hpp"
 #include "gel/export.hpp"
+#include "gel/run_directory.hpp"
 
 namespace {
 
@@ -49,19 +51,52 @@ std::vector<gel::exporting::Frame> frames_of(const std::string& input) {
   return frames;
 }
 
+// Writes `frames` to `out`; the files written go to stdout, their count to stderr.
+void write_frames(const std::vector<gel::exporting::Frame>& frames, gel::exporting::Format format, const std::string& out) {
+  using namespace gel::exporting;
+  if (format == Format::kVtu && frames.size() > 1 && !out.ends_with(".pvd"))
+    throw gel::InvalidArgument("out", std::to_string(frames.size()) + " frames do not fit one .vtu file: name the output .pvd "
+                                          "(a ParaView collection with one .vtu per frame beside it)");
+  const auto writer = open_writer(format, out);
+  for (const auto& frame : frames) writer->append(frame);
+  for (const auto& file : writer->files()) std::cout << file << "\n";
+  std::cerr << frames.size() << " frame(s) written as " << format_name(format) << " to " << out << "\n";
+}
+
+// An ensemble's folder: one output per finished member, named after it beside --out
+// (frames/rows.gsd -> frames/rows_seed_3.gsd), since its members are separate trajectories that
+// a reader must not take for one.
+int export_ensemble(const ExportOptions& o, const gel::EnsembleMembers& members, gel::exporting::Format format) {
+  namespace fs = std::filesystem;
+  for (const std::string& member : members.unfinished)
+    std::cerr << "gelsim: " << member << " has no curve.json (failed, stopped or still running): not exported\n";
+  if (members.finished.empty())
+    throw gel::InvalidArgument("input", "'" + o.inputs[0] + "' is an ensemble's folder, but none of its members has finished "
+                                        "(no seed_<seed>/curve.json)");
+  const fs::path out(o.out);
+  for (const std::string& member : members.finished) {
+    const fs::path member_out = out.parent_path() / (out.stem().string() + "_" + fs::path(member).filename().string() +
+                                                     out.extension().string());
+    write_frames(frames_of(member), format, member_out.string());
+  }
+  return 0;
+}
+
 int run_export(const ExportOptions& o) {
   using namespace gel::exporting;
   const Format format = o.format.empty() ? format_from_path(o.out) : format_from_name(o.format);
+  for (const auto& input : o.inputs) {
+    const gel::EnsembleMembers members = gel::ensemble_members(input);
+    if (members.finished.empty() && members.unfinished.empty()) continue;
+    if (o.inputs.size() > 1)
+      throw gel::InvalidArgument("input", "'" + input + "' is an ensemble's folder: export it on its own (one file per member, "
+                                          "OUT_seed_<seed>), not into one file with other inputs");
+    return export_ensemble(o, members, format);
+  }
   std::vector<Frame> frames;
   for (const auto& input : o.inputs)
     for (auto& frame : frames_of(input)) frames.push_back(std::move(frame));
-  if (format == Format::kVtu && frames.size() > 1 && !o.out.ends_with(".pvd"))
-    throw gel::InvalidArgument("out", std::to_string(frames.size()) + " frames do not fit one .vtu file: name the output .pvd "
-                                          "(a ParaView collection with one .vtu per frame beside it)");
-  const auto writer = open_writer(format, o.out);
-  for (const auto& frame : frames) writer->append(frame);
-  for (const auto& file : writer->files()) std::cout << file << "\n";
-  std::cerr << frames.size() << " frame(s) written as " << format_name(format) << "\n";
+  write_frames(frames, format, o.out);
   return 0;
 }
 
@@ -69,7 +104,7 @@ const gelsim::Registrar export_registrar{
     "export", "Write configurations or a run's snapshots as extended XYZ, GSD or VTU (OVITO, ASE, HOOMD, ParaView)",
     [](CLI::App& sub) -> std::function<int()> {
       auto o = std::make_shared<ExportOptions>();
-      sub.add_option("input", o->inputs, "configuration files (.json/.pb) or compression run directories")->required();
+      sub.add_option("input", o->inputs, "configuration files (.json/.pb), compression run directories, or one ensemble's folder (a file per member)")->required();
       sub.add_option("--out", o->out, "output file: .xyz, .gsd, .vtu (one frame) or .pvd (VTU frames)")->required();
       sub.add_option("--format", o->format, "xyz, gsd or vtu (default: from the --out ending)");
       return [o] { return run_export(*o); };

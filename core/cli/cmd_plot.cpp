@@ -1,5 +1,6 @@
 // gelsim plot: every picture of a compression run or of an ensemble of runs.
 //   gelsim plot DIR... [--out PICDIR] [--format png|svg|pdf] [--fit-range PHIMIN,PHIMAX] [--no-snapshots]
+// DIR is a run's folder, or an ensemble's (its finished seed_<seed>/ members: run_inputs.hpp).
 // PICDIR defaults to DIR/plots of the first DIR; analysis.json (what analyze-run --json prints)
 // is written next to the pictures.
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include "gel/analysis/run_analysis.hpp"
 #include "gel/configuration.hpp"
 #include "gel/errors.hpp"
+#include "run_inputs.hpp"
 
 namespace {
 
@@ -35,7 +37,7 @@ int run_plot(const PlotOptions& o) {
       throw gel::InvalidArgument("fit_range", "expected PHIMIN,PHIMAX, got '" + o.fit_range + "'");
   }
   const std::string out = o.out.empty() ? (std::filesystem::path(o.dirs[0]) / "plots").string() : o.out;
-  const gel::analysis::RunAnalysis run = gel::analysis::analyse_runs(o.dirs, options);
+  const gel::analysis::RunAnalysis run = gel::analysis::analyse_runs(gelsim::runs_of(o.dirs), options);
   gel::analysis::PictureOptions pictures;
   pictures.format = o.svg ? "svg" : o.format;
   pictures.snapshots = !o.no_snapshots;
@@ -59,7 +61,7 @@ const gelsim::Registrar plot_registrar{
     "plot", "Draw every picture of a compression run or an ensemble (gnuplot plots, cairo snapshots)",
     [](CLI::App& sub) -> std::function<int()> {
       auto o = std::make_shared<PlotOptions>();
-      sub.add_option("dir", o->dirs, "compression output directories (several: an ensemble)")->required();
+      sub.add_option("dir", o->dirs, "compression output directories (several, or an ensemble's folder: an ensemble)")->required();
       sub.add_option("--out", o->out, "picture folder (default DIR/plots)");
       auto* format = sub.add_option("--format", o->format, "png (default), svg or pdf")->check(CLI::IsMember({"png", "svg", "pdf"}));
       sub.add_flag("--svg", o->svg, "the same as --format svg")->excludes(format);

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 #include <string_view>
 
 #include <nlohmann/json.hpp>
@@ -80,6 +82,38 @@ std::vector<std::string> clear_earlier_run(const std::string& dir) {
   }
   for (const std::string& name : outputs) fs::remove_all(fs::path(dir) / name);
   return outputs;
+}
+
+EnsembleMembers ensemble_members(const std::string& dir) {
+  EnsembleMembers members;
+  std::error_code error;
+  if (dir.empty() || !fs::is_directory(dir, error) || fs::exists(fs::path(dir) / "curve.json", error)) return members;
+  std::vector<std::pair<std::uint64_t, fs::path>> found;  // (seed, folder)
+  for (const fs::directory_entry& entry : fs::directory_iterator(dir, error)) {
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_directory() || name.size() <= 5 || name.rfind("seed_", 0) != 0 ||
+        name.find_first_not_of("0123456789", 5) != std::string::npos)
+      continue;
+    try {
+      found.emplace_back(std::stoull(name.substr(5)), entry.path());
+    } catch (const std::out_of_range&) {  // more digits than a seed has: not a member
+    }
+  }
+  // The manifest's order is the order the ensemble was asked for (--seeds 3,1,2); without one
+  // (a study's ensemble, an archived copy), by seed.
+  std::vector<std::uint64_t> order;
+  const nlohmann::json manifest = read_json(fs::path(dir) / "ensemble.json");
+  if (manifest.is_object() && manifest.contains("seeds") && manifest.at("seeds").is_array())
+    for (const nlohmann::json& seed : manifest.at("seeds"))
+      if (seed.is_number_unsigned()) order.push_back(seed.get<std::uint64_t>());
+  auto rank = [&](std::uint64_t seed) {
+    const auto at = std::find(order.begin(), order.end(), seed);
+    return std::pair<std::size_t, std::uint64_t>(static_cast<std::size_t>(at - order.begin()), seed);
+  };
+  std::sort(found.begin(), found.end(), [&](const auto& a, const auto& b) { return rank(a.first) < rank(b.first); });
+  for (const auto& [seed, folder] : found)
+    (fs::exists(folder / "curve.json", error) ? members.finished : members.unfinished).push_back(folder.string());
+  return members;
 }
 
 }  // namespace gel

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # gelsim compress --seeds/--jobs, end to end with the real gelsim: members run in parallel, each
-# gives the same rows as a single run of its seed, a SIGTERM stops every member with exit 4 and
-# --resume finishes them bit for bit, and bad --seeds are refused with exit 2 before anything runs.
+# gives the same rows as a single run of its seed, the ensemble's folder is what analyze-run, plot
+# and export take, a SIGTERM stops every member with exit 4 and --resume finishes them bit for
+# bit, and bad --seeds are refused with exit 2 before anything runs.
 set -euo pipefail
 GELSIM=${1:?usage: test_gelsim_ensemble.sh GELSIM}
 WORK=$(mktemp -d)
@@ -39,13 +40,42 @@ assert last["members"] == 2 and abs(last["P_mean"] - sum(ps) / 2) <= 1e-15 * abs
 assert d["ensemble_rule"].startswith("mean and sample standard deviation (n - 1; 0 for n = 1) over the members that reached row k"), d
 PY
 
+# The ensemble's folder stands for its finished members in analyze-run, plot and export; a
+# member without a curve (failed, stopped) is named and left out.
+mkdir "$WORK/ens/seed_9"
+"$GELSIM" analyze-run "$WORK/ens" --no-structure --json > "$WORK/folder.json" 2> "$WORK/folder.log" \
+  || fail "analyze-run of the ensemble's folder exited $?: $(tail -2 "$WORK/folder.log")"
+grep -q "seed_9 has no curve.json (failed, stopped or still running): left out" "$WORK/folder.log" \
+  || fail "the unfinished member is not named: $(cat "$WORK/folder.log")"
+"$GELSIM" analyze-run "$WORK/ens/seed_3" "$WORK/ens/seed_4" --no-structure --json > "$WORK/named.json" 2>/dev/null \
+  || fail "analyze-run of the members"
+cmp -s "$WORK/folder.json" "$WORK/named.json" || fail "the folder's analysis differs from its members'"
 # The ensemble's pictures say what their error bars are, in the axis title (the figure title
 # is only in the kept script).
-"$GELSIM" plot "$WORK/ens/seed_3" "$WORK/ens/seed_4" --out "$WORK/ens_plots" > /dev/null 2>&1 || fail "plot of the ensemble"
+"$GELSIM" plot "$WORK/ens" > /dev/null 2>&1 || fail "plot of the ensemble's folder"
 for figure in pressure contact_number energy_increments rupture_rates profiles; do
-  grep -q '^set ylabel .*(mean ± s.d. over n = 2 runs)' "$WORK/ens_plots/gnuplot/$figure.gp" \
-    || fail "$figure: the error bars are not named: $(grep '^set ylabel' "$WORK/ens_plots/gnuplot/$figure.gp")"
+  grep -q '^set ylabel .*(mean ± s.d. over n = 2 runs)' "$WORK/ens/plots/gnuplot/$figure.gp" \
+    || fail "$figure: the error bars are not named: $(grep '^set ylabel' "$WORK/ens/plots/gnuplot/$figure.gp")"
 done
+# Export: one file per member, named after it, each the member's own frames (read by gsd.hoomd).
+"$GELSIM" compress --preset quick --fidelity fast --steps 1 --phi-max 0.2 --seeds 2,1 --out "$WORK/snap" > /dev/null 2>&1 \
+  || fail "ensemble with snapshots"
+"$GELSIM" export "$WORK/snap" --out "$WORK/frames/rows.gsd" > "$WORK/export.out" 2> "$WORK/export.log" \
+  || fail "export of the ensemble's folder exited $?: $(cat "$WORK/export.log")"
+/usr/bin/python3 - "$WORK" <<'PY' || fail "the members' GSD files"
+import json, sys, gsd.hoomd
+work = sys.argv[1]
+for seed in (2, 1):
+    rows = [r for r in json.load(open(f"{work}/snap/seed_{seed}/curve.json"))["rows"] if r.get("snapshot")]
+    with gsd.hoomd.open(f"{work}/frames/rows_seed_{seed}.gsd", "rb") as frames:
+        assert len(frames) == len(rows) >= 2, (seed, len(frames), len(rows))
+        assert [int(f.configuration.step) for f in frames] == [int(r.get("steps", 0)) for r in rows], seed
+listed = open(f"{work}/export.out").read().split()
+assert listed == [f"{work}/frames/rows_seed_2.gsd", f"{work}/frames/rows_seed_1.gsd"], listed
+PY
+set +e; "$GELSIM" export "$WORK/snap" "$WORK/snap/seed_1" --out "$WORK/both.gsd" > /dev/null 2> "$WORK/mixed.log"; code=$?; set -e
+[ "$code" -eq 2 ] && grep -q "is an ensemble's folder: export it on its own" "$WORK/mixed.log" \
+  || fail "an ensemble's folder mixed with other inputs: exit $code, $(cat "$WORK/mixed.log")"
 
 # 2. Stopped by SIGTERM once every member has a row, resumed: the same rows as uninterrupted.
 LONG=(--preset quick --fidelity fast --steps 5 --phi-max 0.4 --no-snapshots --checkpoint-seconds 0.2)

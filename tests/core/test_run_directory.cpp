@@ -84,6 +84,25 @@ TEST_F(RunDirectory, AnEnsembleIsRecognisedByItsManifestAndMembers) {
   EXPECT_EQ(left(), (std::vector<std::string>{"seed_x"}));
 }
 
+TEST_F(RunDirectory, AnEnsemblesMembersComeInTheManifestsOrderFinishedOnesApart) {
+  EXPECT_TRUE(ensemble_members(dir()).finished.empty());  // nothing there
+  write("ensemble.json", R"({"seeds": [10, 2, 7], "scene": {}})");
+  write("seed_2/curve.json", "{}");
+  write("seed_10/curve.json", "{}");
+  write("seed_7/checkpoint.bin", "GELCKPT5");  // stopped or failed: no curve yet
+  write("seed_x/curve.json", "{}");            // not a member
+  const EnsembleMembers members = ensemble_members(dir());
+  EXPECT_EQ(members.finished, (std::vector<std::string>{(fs::path(dir()) / "seed_10").string(), (fs::path(dir()) / "seed_2").string()}));
+  EXPECT_EQ(members.unfinished, (std::vector<std::string>{(fs::path(dir()) / "seed_7").string()}));
+  // Without a manifest (a study's ensemble, an archived copy): by seed, not by name.
+  fs::remove(fs::path(dir()) / "ensemble.json");
+  EXPECT_EQ(ensemble_members(dir()).finished.front(), (fs::path(dir()) / "seed_2").string());
+  // A run's own folder is not an ensemble's, whatever else it holds.
+  write("curve.json", "{}");
+  EXPECT_TRUE(ensemble_members(dir()).finished.empty());
+  EXPECT_TRUE(ensemble_members(dir()).unfinished.empty());
+}
+
 TEST_F(RunDirectory, AFolderThatOnlySharesNamesWithARunIsNeverEmptied) {
   write("snapshots/holiday.jpg", "");
   write("curve.json", R"({"x": [1, 2]})");   // a curve.json, but not gelsim's

@@ -18,4 +18,14 @@ std::vector<std::string> earlier_run_outputs(const std::string& dir);
 // name with a run's ("snapshots", "plots") is never emptied.
 std::vector<std::string> clear_earlier_run(const std::string& dir);
 
+// The members of an ensemble's folder (gelsim compress --seeds ... --out DIR, or one ensemble of
+// a gelsim study): the folders DIR/seed_<seed>, in the order of DIR/ensemble.json's seeds where
+// there is one, else by seed. `finished` holds those with a curve.json (what an analysis, a plot
+// or an export reads), `unfinished` the others (failed, stopped or still running). Both are
+// empty when `dir` is not an ensemble's folder: it holds a curve.json itself, or no member.
+struct EnsembleMembers {
+  std::vector<std::string> finished, unfinished;
+};
+EnsembleMembers ensemble_members(const std::string& dir);
+
 }  // namespace gel
