@@ -10,8 +10,10 @@
 // (gel::analysis::analyse_study) goes to OUT/study_analysis.json, and each finished member's
 // structure numbers to its structure.json: with curve.json, all that the analysis needs, so a
 // study directory without checkpoints and snapshots is still a complete, resumable study.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -113,6 +115,72 @@ std::vector<gel::StudyEnsembleSpec> read_study_file(const StudyArgs& args) {
   return ensembles;
 }
 
+// What this invocation did with the members, for the summary.
+struct StudyOutcome {
+  std::atomic<int> ran{0}, already_finished{0};
+  std::mutex mutex;
+  std::vector<std::string> failed;  // "bond1 seed 3"
+  void add_failure(const std::string& name) {
+    std::lock_guard lock(mutex);
+    failed.push_back(name);
+  }
+};
+
+// "value [lo, hi]" of an estimate of the study analysis (95 % bootstrap interval), "-" without one.
+std::string estimate_text(const nlohmann::json& estimate) {
+  if (!estimate.is_object() || !estimate.value("value", nlohmann::json()).is_number()) return "-";
+  char text[96];
+  if (estimate.value("lo", nlohmann::json()).is_number() && estimate.value("hi", nlohmann::json()).is_number())
+    std::snprintf(text, sizeof text, "%.3g [%.3g, %.3g]", estimate.at("value").get<double>(), estimate.at("lo").get<double>(),
+                  estimate.at("hi").get<double>());
+  else
+    std::snprintf(text, sizeof text, "%.3g", estimate.at("value").get<double>());
+  return text;
+}
+
+// The end of a study: its members, each ensemble's headline numbers (docs/study_analysis.md), and
+// where the analysis and the figures are, on stdout.
+void print_study_summary(const StudyArgs& args, std::size_t members, std::size_t finished, const StudyOutcome& outcome,
+                         const nlohmann::json& analysis, const std::string& path) {
+  std::printf("members: %zu of %zu finished", finished, members);
+  if (!args.analyse_only) std::printf(" (%d run now, %d already done)", outcome.ran.load(), outcome.already_finished.load());
+  if (!outcome.failed.empty()) {
+    std::vector<std::string> failed = outcome.failed;
+    std::sort(failed.begin(), failed.end());
+    std::string names;
+    for (const auto& name : failed) names += (names.empty() ? "" : ", ") + name;
+    std::printf(", %zu failed (%s: their errors are above)", failed.size(), names.c_str());
+  }
+  std::printf("\n");
+  const double confidence = analysis.value("confidence", 0.95);
+  for (const nlohmann::json& ensemble : analysis.at("ensembles")) {
+    const std::string name = ensemble.at("name").get<std::string>();
+    std::printf("%s: %d seeds (%.0f %% bootstrap intervals over seeds)\n", name.c_str(), ensemble.at("members").get<int>(),
+                100 * confidence);
+    const nlohmann::json& power_law = ensemble.at("power_law");
+    const nlohmann::json& all = power_law.value("all", nlohmann::json());
+    if (all.is_object())
+      std::printf("  lambda (P_y ~ phi^lambda, phi %.3g-%.3g): %s\n", all.at("phi_min").get<double>(),
+                  all.at("phi_max").get<double>(), estimate_text(all.at("exponent")).c_str());
+    else
+      std::printf("  lambda: not fitted (%s)\n", power_law.value("all_error", std::string("no fit")).c_str());
+    const nlohmann::json& regimes = ensemble.at("regimes");
+    std::printf("  elastic -> plastic at phi %s, single -> multi-mode at phi %s\n",
+                estimate_text(regimes.value("elastic_to_plastic_phi", nlohmann::json())).c_str(),
+                estimate_text(regimes.value("single_to_multi_mode_phi", nlohmann::json())).c_str());
+    const nlohmann::json& gel_point = ensemble.at("gel_point");
+    if (gel_point.value("at_bound", false))
+      std::printf("  gel point: not determined (the fit put phi_g at its bound)\n");
+    else if (gel_point.contains("phi_g"))
+      std::printf("  gel point: phi_g %s\n", estimate_text(gel_point.at("phi_g")).c_str());
+    else
+      std::printf("  gel point: not fitted (%s)\n", gel_point.value("error", std::string("no fit")).c_str());
+    const std::string folder = (fs::path(args.out) / name).string();
+    std::printf("  figures: gelsim plot %s  (draws them into %s/plots)\n", folder.c_str(), folder.c_str());
+  }
+  std::printf("analysis (every observable, every row): %s\n", path.c_str());
+}
+
 int run_study(const StudyArgs& args) {
   if (args.list_presets) {
     for (const std::string& name : gel::study_preset_names()) {
@@ -162,6 +230,7 @@ int run_study(const StudyArgs& args) {
     std::cerr << line << std::endl;
   };
   int exit_code = 0;
+  StudyOutcome outcome;
   if (!args.analyse_only) {
     std::signal(SIGINT, request_study_stop);
     std::signal(SIGTERM, request_study_stop);
@@ -175,7 +244,10 @@ int run_study(const StudyArgs& args) {
       for (std::size_t index = next++; index < members.size() && !g_study_stop; index = next++) {
         const Member& member = members[index];
         const std::string prefix = "[" + member.ensemble + " seed " + std::to_string(member.seed) + "] ";
-        if (finished_run(member.dir)) continue;
+        if (finished_run(member.dir)) {
+          ++outcome.already_finished;
+          continue;
+        }
         gel::RunOptions options;
         options.out_dir = member.dir;
         options.stop = &g_study_stop;
@@ -193,13 +265,16 @@ int run_study(const StudyArgs& args) {
           if (result.stopped) {
             worst = std::max(worst.load(), 4);
           } else {
+            ++outcome.ran;
             print(prefix + "done in " + std::to_string(static_cast<int>(seconds)) + " s");
           }
         } catch (const gel::StabilityError& e) {
           print(prefix + "failed: " + e.what());
+          outcome.add_failure(member.ensemble + " seed " + std::to_string(member.seed));
           worst = std::max(worst.load(), 3);
         } catch (const std::exception& e) {
           print(prefix + "failed: " + e.what());
+          outcome.add_failure(member.ensemble + " seed " + std::to_string(member.seed));
           worst = std::max(worst.load(), 1);
         }
       }
@@ -244,7 +319,9 @@ int run_study(const StudyArgs& args) {
   const nlohmann::json analysis = gel::analysis::to_json(gel::analysis::analyse_study(inputs, options));
   const std::string path = (fs::path(args.out) / "study_analysis.json").string();
   std::ofstream(path) << analysis.dump(1) << "\n";
-  std::cout << path << "\n";
+  std::size_t finished = 0;
+  for (const auto& input : inputs) finished += input.curves.size();
+  print_study_summary(args, members.size(), finished, outcome, analysis, path);
   return exit_code;
 }
 

@@ -42,4 +42,17 @@ for ensemble in fresh["ensembles"]:
 if strip(committed) != strip(fresh):
     sys.exit("analysis of the archive is not the committed study_analysis.json")
 PY
+# The summary it ends with gives the analysis's headline numbers, as the analysis has them.
+/usr/bin/python3 - "$WORK/study/study_analysis.json" "$WORK/out" <<'PY' || fail "the printed summary"
+import json, sys
+analysis, printed = json.load(open(sys.argv[1])), open(sys.argv[2]).read().splitlines()
+estimate = lambda e: "%.3g [%.3g, %.3g]" % (e["value"], e["lo"], e["hi"])
+assert printed[0] == "members: 20 of 20 finished (0 run now, 20 already done)", printed[0]
+for e in analysis["ensembles"]:
+    fit = e["power_law"]["all"]
+    for line in (f"{e['name']}: 10 seeds (95 % bootstrap intervals over seeds)",
+                 "  lambda (P_y ~ phi^lambda, phi %.3g-%.3g): %s" % (fit["phi_min"], fit["phi_max"], estimate(fit["exponent"])),
+                 "  gel point: phi_g " + estimate(e["gel_point"]["phi_g"])):
+        assert line in printed, (line, printed)
+PY
 echo "archived paper study: complete, analysis reproduced"

@@ -23,7 +23,15 @@ JSON
   || fail "study exited $?: $(tail -3 "$WORK/a.log")"
 grep -q "study of 2 ensembles, 6 runs, 2 at a time" "$WORK/a.log" || fail "not 6 runs 2 at a time: $(head -2 "$WORK/a.log")"
 [ "$(grep -c 'done in' "$WORK/a.log")" -eq 6 ] || fail "not 6 runs done"
-grep -qx "$WORK/a/study_analysis.json" "$WORK/a.out" || fail "the analysis path is not printed"
+# It ends with a summary: the members, each ensemble's headline numbers, where the figures and
+# the analysis are.
+grep -qx "members: 6 of 6 finished (6 run now, 0 already done)" "$WORK/a.out" || fail "no members line: $(cat "$WORK/a.out")"
+for e in bond1 bond2; do
+  grep -qx "$e: 3 seeds (95 % bootstrap intervals over seeds)" "$WORK/a.out" || fail "no summary of $e: $(cat "$WORK/a.out")"
+  grep -qx "  figures: gelsim plot $WORK/a/$e  (draws them into $WORK/a/$e/plots)" "$WORK/a.out" || fail "$e: where are its figures"
+done
+[ "$(tail -1 "$WORK/a.out")" = "analysis (every observable, every row): $WORK/a/study_analysis.json" ] \
+  || fail "the analysis path is not the last line: $(tail -1 "$WORK/a.out")"
 $py - "$WORK/a" <<'PY' || fail "study analysis"
 import json, os, sys
 out = sys.argv[1]
@@ -42,9 +50,10 @@ PY
 
 # 2. The same command again: nothing runs, the same analysis.
 cp "$WORK/a/study_analysis.json" "$WORK/first.json"
-"$GELSIM" study --file "$WORK/study.json" --seeds 3 --bootstrap-samples 200 --out "$WORK/a" > /dev/null 2> "$WORK/again.log" \
+"$GELSIM" study --file "$WORK/study.json" --seeds 3 --bootstrap-samples 200 --out "$WORK/a" > "$WORK/again.out" 2> "$WORK/again.log" \
   || fail "the repeated study exited $?"
 ! grep -q "done in" "$WORK/again.log" || fail "a finished member ran again"
+grep -qx "members: 6 of 6 finished (0 run now, 6 already done)" "$WORK/again.out" || fail "again: $(head -1 "$WORK/again.out")"
 same_analysis() {  # equal but for the time the structure analyses took
   $py - "$1" "$2" <<'PY'
 import json, sys
