@@ -157,6 +157,49 @@ for link in $links; do
   [ "$(stat -c %s "$file")" -gt 1024 ] || fail "$link is smaller than 1 kB"
 done
 
+# 3b. The figures' gnuplot scripts: every regime label above the frame (graph 1, lifted by a
+#     positive offset), where it cannot cover a data point, no two labels of one figure on the
+#     same row where they could overlap, and every title says what the error bars are and over
+#     how many seeds.
+"$PYTHON" - "$TOOL" "$WORK/analysis.json" <<'PY' || fail "the figures' scripts"
+import json, os, re, sys
+sys.path.insert(0, os.path.dirname(sys.argv[1]))
+from reproduction import figures
+ensembles = json.load(open(sys.argv[2]))["ensembles"]
+
+class Capture:
+    cairo = True
+    def data(self, points):
+        return "data"
+    def draw(self, name, body, width=760, height=580):
+        self.bodies[name] = body
+        return name
+
+plot = Capture()
+plot.bodies = {}
+for draw in (figures.figure_compression, figures.figure_ruptures, figures.figure_contacts, figures.figure_energy,
+             figures.figure_xi):
+    draw(plot, ensembles)
+assert len(plot.bodies) == 5, sorted(plot.bodies)
+labelled = 0
+for name, body in plot.bodies.items():
+    assert "95 % bootstrap intervals, bond1 n = 4, bond2 n = 2 seeds" in body, (name, re.findall(r"title .*", body))
+    for panel in body.split("reset\n"):
+        rows = []
+        for line in panel.splitlines():
+            if not line.startswith("set label"):
+                continue
+            m = re.search(r" at ([-0-9.e+]+), graph ([0-9.]+) .*offset [-0-9.]+,([0-9.]+)", line)
+            assert m and float(m.group(2)) >= 1 and float(m.group(3)) > 0, (name, "label inside the frame", line)
+            rows.append((float(m.group(1)), float(m.group(3))))
+            labelled += 1
+        # Labels at nearly one phi (two ensembles' boundaries) never share a row.
+        for i, (x, row) in enumerate(rows):
+            for x2, row2 in rows[i + 1:]:
+                assert abs(x - x2) > 0.05 * x or row != row2, (name, rows)
+assert labelled >= 8, labelled
+PY
+
 # 4. Without a gelsim the snapshots are left out with a note, the rest is written.
 "$PYTHON" "$TOOL" "$WORK/analysis.json" --out "$WORK/nogelsim.md" --figures "$WORK/nogelsim" --runs "$WORK/study" \
   --gelsim "$WORK/no-such-gelsim" > "$WORK/out.log" 2>&1 || fail "the tool failed without gelsim: $(tail -5 "$WORK/out.log")"

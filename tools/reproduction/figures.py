@@ -89,8 +89,9 @@ def clause_pair(plot, points, colour, title, pt=7, dt=1, lines=True):
     return clauses
 
 
-def boundary_marks(ensemble, colour, cairo, label=True):
-    """gnuplot commands: each regime boundary a vertical dashed line, its interval shaded."""
+def boundary_marks(ensemble, colour, cairo, labels=None):
+    """gnuplot commands: each regime boundary a vertical dashed line, its interval shaded. Its label
+    (text, x, colour) goes to `labels`, for boundary_labels to set above the frame."""
     out = []
     for text, estimate in boundaries(ensemble):
         x = value_of(estimate)
@@ -99,10 +100,49 @@ def boundary_marks(ensemble, colour, cairo, label=True):
             out.append(f"set object rect from {lo:.10g}, graph 0 to {hi:.10g}, graph 1 behind "
                        f"fc rgb {gq(colour)} fs transparent solid 0.08 noborder")
         out.append(f"set arrow from {x:.10g}, graph 0 to {x:.10g}, graph 1 nohead dt 2 lw 1.5 lc rgb {gq(colour)}")
-        if label:
-            out.append(f"set label {gq(text)} at {x:.10g}, graph 0.98 rotate by 90 right offset -0.9,0 "
-                       f"font ',9' textcolor rgb {gq(colour)} noenhanced")
+        if labels is not None:
+            labels.append((text, x, colour))
     return out
+
+
+def boundary_labels(labels, xs, log, width, above=2.2):
+    """gnuplot commands: the boundaries' labels above the frame, where no data point is, each
+    beside its line (to the right, or to the left where the text would run past the frame), a
+    label that would overlap another a row higher; the title goes above the rows. `width` is the
+    figure's (or panel's) width in pixels, for an estimate of the labels' lengths; `above` the
+    character heights kept above the rows (the title's, and a multiplot's own title's)."""
+    xs = [x for x in xs if x is not None and (x > 0 or not log)]
+    if not labels or not xs:
+        return []
+    lo, hi = min(xs), max(xs)
+    if log:
+        lo, hi = math.log(lo / 1.06), math.log(hi * 1.06)
+    else:
+        pad = 0.04 * (hi - lo) if hi > lo else 0.02
+        lo, hi = lo - pad, hi + pad
+    char = 6.5 / max(100, width - 130)  # a 9-point character over the plot area (tick labels and y label take ~130 px)
+    rows, out = [], []
+    for text, x, colour in labels:
+        fraction = ((math.log(x) if log else x) - lo) / (hi - lo) if hi > lo else 0.5
+        extent = (len(text) + 1) * char
+        right = fraction + extent <= 1.0
+        span = (fraction, fraction + extent) if right else (fraction - extent, fraction)
+        row = next((r for r, taken in enumerate(rows) if all(span[1] <= a or b <= span[0] for a, b in taken)), len(rows))
+        if row == len(rows):
+            rows.append([])
+        rows[row].append(span)
+        out.append(f"set label {gq(text)} at {x:.10g}, graph 1 {'left' if right else 'right'} "
+                   f"offset {0.4 if right else -0.4},{0.7 + 1.1 * row:.2f} font ',9' textcolor rgb {gq(colour)} noenhanced")
+    out += [f"set tmargin {1.1 * len(rows) + above:.1f}", f"set title offset 0,{1.1 * len(rows):.1f}"]
+    return out
+
+
+def bars_text(ensembles):
+    """What the error bars are: 95 % bootstrap intervals of the mean over each ensemble's seeds."""
+    counts = [(e.get("name"), e.get("members")) for e in ensembles]
+    if len({n for _, n in counts}) == 1:
+        return f"means and 95 % bootstrap intervals, n = {counts[0][1]} seeds"
+    return "means and 95 % bootstrap intervals, " + ", ".join(f"{name} n = {n}" for name, n in counts) + " seeds"
 
 
 def key_below(clauses):
@@ -129,7 +169,7 @@ def phi_tics(lo, hi):
 
 
 def figure_compression(plot, ensembles):
-    clauses, setup, xs, floors = [], [], [], []
+    clauses, setup, xs, floors, labels = [], [], [], [], []
     for i, ensemble in enumerate(ensembles):
         colour = COLOURS[i % len(COLOURS)]
         points = []
@@ -156,13 +196,14 @@ def figure_compression(plot, ensembles):
             clauses.append(f"(x >= {a:.10g} && x <= {b:.10g}) ? {prefactor:.10g} * x**({exponent:.10g}) : 1/0 "
                            f"with lines lw 2.5 dt {FIT_DASH[key]} lc rgb {gq(colour)} "
                            f"title {gq(ensemble['name'] + f' {label}: λ = {num(exponent)}')} noenhanced")
-        setup += boundary_marks(ensemble, colour, plot.cairo)
+        setup += boundary_marks(ensemble, colour, plot.cairo, labels)
     if not clauses:
         return None
+    setup += boundary_labels(labels, xs, True, 820)
     setup += ["set logscale xy", x_range(xs, True), phi_tics(min(xs), max(xs)),
               f"set yrange [{min(floors):.6g}:*]", "set format y '10^{%L}'", "set samples 2000",
               "set xlabel 'φ'", "set ylabel 'P_y  [F_0/a^2]'", key_below(clauses),
-              "set grid", "set title 'Compression curves: ensemble means, 95 % intervals, power laws per regime'"]
+              "set grid", f"set title {gq('Compression curves and power laws per regime: ' + bars_text(ensembles))}"]
     return plot.draw("compression.png", "\n".join(setup) + "\nplot " + ", \\\n  ".join(clauses), 820, 660)
 
 
@@ -183,8 +224,10 @@ def figure_ruptures(plot, ensembles):
                 xs += [p[0] for p in points]
                 clauses += clause_pair(plot, points, colour, label)
         if clauses:
+            labels = []
             body = ["reset", "unset object", "unset arrow", "unset label"]
-            body += boundary_marks(ensemble, "#555555", plot.cairo)
+            body += boundary_marks(ensemble, "#555555", plot.cairo, labels)
+            body += boundary_labels(labels, xs, True, 600, above=3.4)
             body += ["set logscale xy", x_range(xs, True), phi_tics(min(xs), max(xs)),
                      f"set yrange [{min(floors):.6g}:*]", "set format y '10^{%L}'", "set grid",
                      "set xlabel 'φ (interval midpoint)'", "set ylabel 'Γ  [per particle per d ln φ]'",
@@ -195,13 +238,13 @@ def figure_ruptures(plot, ensembles):
         return None
     columns = min(2, len(panels))
     rows = (len(panels) + columns - 1) // columns
-    body = f"set multiplot layout {rows},{columns} title 'Rupture rates by mode (positive values)'\n" + \
+    body = f"set multiplot layout {rows},{columns} title {gq('Rupture rates by mode (positive values): ' + bars_text(ensembles))}\n" + \
         "\n".join(panels) + "\nunset multiplot"
     return plot.draw("rupture_rates.png", body, 600 * columns, 520 * rows + 40)
 
 
 def figure_contacts(plot, ensembles):
-    clauses, setup, xs = [], [], []
+    clauses, setup, xs, labels = [], [], [], []
     for i, ensemble in enumerate(ensembles):
         colour = COLOURS[i % len(COLOURS)]
         points = []
@@ -214,11 +257,12 @@ def figure_contacts(plot, ensembles):
         if points:
             xs += [p[0] for p in points]
             clauses += clause_pair(plot, points, colour, ensemble["name"])
-            setup += boundary_marks(ensemble, colour, plot.cairo)
+            setup += boundary_marks(ensemble, colour, plot.cairo, labels)
     if not clauses:
         return None
+    setup += boundary_labels(labels, xs, False, 760)
     setup += [x_range(xs, False), "set grid", "set xlabel 'φ'", "set ylabel 'contact number z'",
-              key_below(clauses), "set title 'Contact number: ensemble means, 95 % intervals'"]
+              key_below(clauses), f"set title {gq('Contact number: ' + bars_text(ensembles))}"]
     return plot.draw("contact_number.png", "\n".join(setup) + "\nplot " + ", \\\n  ".join(clauses))
 
 
@@ -245,13 +289,14 @@ def figure_energy(plot, ensembles):
             points, floor = log_points(points)
             floors.append(floor)
         clauses += clause_pair(plot, points, colour, title, pt=pt, dt=dt)
-    setup = []
+    setup, labels = [], []
     for i, ensemble in enumerate(ensembles):
         if any(title.startswith(ensemble["name"] + " ") for _, _, title, _, _ in series):
-            setup += boundary_marks(ensemble, COLOURS[i % len(COLOURS)], plot.cairo)
+            setup += boundary_marks(ensemble, COLOURS[i % len(COLOURS)], plot.cairo, labels)
+    setup += boundary_labels(labels, xs, True, 760, above=3.3)  # a title of two lines
     setup += ["set logscale x", x_range(xs, True), phi_tics(min(xs), max(xs)), "set grid", "set xlabel 'φ (interval midpoint)'",
               "set ylabel 'dE / d ln φ  [F_0 a]'", key_below(clauses),
-              "set title 'Energy increments: stored (solid) and dissipated (dashed) per d ln φ'"]
+              f"set title {gq('Energy increments per d ln φ, stored (solid) and dissipated (dashed)')}.\"\\n\".{gq(bars_text(ensembles))}"]
     if log_y:
         setup += ["set logscale y", f"set yrange [{min(floors):.6g}:*]", "set format y '10^{%L}'"]
     else:
@@ -290,7 +335,7 @@ def figure_xi(plot, ensembles):
     setup = ["set logscale xy", x_range(xs, True), phi_tics(min(xs), max(xs)), f"set yrange [{min(floors):.6g}:*]",
              "set samples 2000", "set grid", "set xlabel 'φ'", "set ylabel 'ξ^{(0.5)}  [a]'",
              key_below(clauses),
-             "set title 'Length ξ^{(0.5)} against φ: ensemble means, 95 % intervals, power law'"]
+             f"set title {gq('Length ξ^{(0.5)} against φ and its power law: ' + bars_text(ensembles))}"]
     return plot.draw("xi_05.png", "\n".join(setup) + "\nplot " + ", \\\n  ".join(clauses))
 
 

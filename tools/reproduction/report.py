@@ -311,18 +311,22 @@ def write_report(args, analysis, figures_dir):
                 "row k = 0 never is)."
     open_interval_note = "Filled symbols: trusted intervals (both rows trusted); open symbols: the others."
     captions = {
-        "compression": "Figure 1. P_y(φ) of each ensemble on log-log axes, with the 95 % intervals as error bars; "
-                       "lines: P_y = C φ^λ fitted in each regime, over its φ range (solid elastic, dashed "
+        "compression": "Figure 1. P_y(φ) of each ensemble on log-log axes, with the 95 % intervals as error bars "
+                       "(percentile bootstrap of the mean over the seeds, n in the title); lines: P_y = C φ^λ fitted in each regime, over its φ range (solid elastic, dashed "
                        "single-mode plastic, dash-dot multi-mode plastic; dotted: all trusted rows, drawn only "
                        "when no regime has a fit); vertical dashed lines: regime boundaries, shaded over their "
-                       "intervals. " + open_note,
+                       "intervals, labelled above the frame. " + open_note,
         "ruptures": "Figure 2. Rupture rates by mode against the interval midpoint φ_mid, one panel per ensemble; "
-                    "only positive values appear on the log axis. Vertical dashed lines: regime boundaries. "
+                    "only positive values appear on the log axis. Error bars: 95 % intervals (percentile "
+                    "bootstrap of the mean over the seeds). Vertical dashed lines: regime boundaries. "
                     + open_interval_note,
-        "contacts": "Figure 3. Contact number against φ, ensemble means with 95 % intervals. " + open_note,
-        "energy": "Figure 4. Stored (solid) and dissipated (dashed) energy per d ln φ against φ_mid. "
+        "contacts": "Figure 3. Contact number against φ, ensemble means with 95 % intervals (percentile bootstrap "
+                    "over the seeds). " + open_note,
+        "energy": "Figure 4. Stored (solid) and dissipated (dashed) energy per d ln φ against φ_mid; error bars: 95 % "
+                  "intervals (percentile bootstrap of the mean over the seeds). "
                   + open_interval_note,
-        "xi": "Figure 5. The length ξ^(0.5) against φ on log-log axes with its power-law fit over its φ range.",
+        "xi": "Figure 5. The length ξ^(0.5) against φ on log-log axes with its power-law fit over its φ range; error "
+              "bars: 95 % intervals (percentile bootstrap of the mean over the seeds).",
     }
     drawers = (("compression", figure_compression), ("ruptures", figure_ruptures), ("contacts", figure_contacts),
                ("energy", figure_energy), ("xi", figure_xi))
