@@ -54,11 +54,6 @@ void print_study(const gel::v1::Study& study) {
   }
 }
 
-bool is_terminal(gel::v1::JobState state) {
-  return state == gel::v1::JOB_STATE_SUCCEEDED || state == gel::v1::JOB_STATE_FAILED ||
-         state == gel::v1::JOB_STATE_CANCELLED;
-}
-
 int watch_study(gelctl::Client& client, const std::string& study_id, bool json_lines) {
   gel::v1::WatchStudyRequest request;
   request.set_study_id(study_id);
@@ -112,7 +107,7 @@ int watch_study(gelctl::Client& client, const std::string& study_id, bool json_l
     }
   }
   gelctl::throw_if_failed(reader->Finish());
-  if (state == gel::v1::JOB_STATE_SUCCEEDED || !is_terminal(state)) return gelctl::kExitSuccess;
+  if (state == gel::v1::JOB_STATE_SUCCEEDED || !gelctl::is_terminal(state)) return gelctl::kExitSuccess;
   return gelctl::kExitJobUnsuccessful;
 }
 

@@ -15,6 +15,7 @@
 #include <iomanip>
 #include <iostream>
 #include <sstream>
+#include <string_view>
 #include <vector>
 
 #include <google/protobuf/util/json_util.h>
@@ -44,11 +45,6 @@ const char* status_code_name(grpc::StatusCode code) {
     case grpc::StatusCode::UNAUTHENTICATED: return "UNAUTHENTICATED";
     default: return "UNKNOWN";
   }
-}
-
-bool is_terminal(gel::v1::JobState state) {
-  return state == gel::v1::JOB_STATE_SUCCEEDED || state == gel::v1::JOB_STATE_FAILED ||
-         state == gel::v1::JOB_STATE_CANCELLED;
 }
 
 // A terminal gets one progress bar redrawn in place; a pipe or file gets a progress line at
@@ -218,26 +214,35 @@ std::unique_ptr<grpc::ClientContext> Client::context(bool with_deadline) const {
   return context;
 }
 
+// The names are the proto enum's own, without the prefix and in lower case
+// (JOB_STATE_RUNNING -> "running"): the words geld stores and prints, with no table here to keep
+// in step with service.proto.
+constexpr std::string_view kStatePrefix = "JOB_STATE_";
+
 std::string state_name(gel::v1::JobState state) {
-  switch (state) {
-    case gel::v1::JOB_STATE_QUEUED: return "queued";
-    case gel::v1::JOB_STATE_RUNNING: return "running";
-    case gel::v1::JOB_STATE_SUCCEEDED: return "succeeded";
-    case gel::v1::JOB_STATE_FAILED: return "failed";
-    case gel::v1::JOB_STATE_CANCELLED: return "cancelled";
-    default: return "unspecified";
-  }
+  const std::string& name = gel::v1::JobState_Name(state);  // "" for a value this build does not know
+  if (state == gel::v1::JOB_STATE_UNSPECIFIED || name.rfind(kStatePrefix, 0) != 0) return "unspecified";
+  std::string lower;
+  for (char c : name.substr(kStatePrefix.size())) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return lower;
 }
 
 gel::v1::JobState parse_state(const std::string& text) {
-  std::string lower;
-  for (char c : text) lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (lower.rfind("job_state_", 0) == 0) lower = lower.substr(10);
-  for (auto state : {gel::v1::JOB_STATE_QUEUED, gel::v1::JOB_STATE_RUNNING, gel::v1::JOB_STATE_SUCCEEDED,
-                     gel::v1::JOB_STATE_FAILED, gel::v1::JOB_STATE_CANCELLED}) {
-    if (state_name(state) == lower) return state;
-  }
-  throw UsageError("--state: unknown state '" + text + "' (queued, running, succeeded, failed, cancelled)");
+  std::string upper;
+  for (char c : text) upper += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  if (upper.rfind(kStatePrefix, 0) != 0) upper = std::string(kStatePrefix) + upper;
+  gel::v1::JobState state = gel::v1::JOB_STATE_UNSPECIFIED;
+  if (gel::v1::JobState_Parse(upper, &state) && state != gel::v1::JOB_STATE_UNSPECIFIED) return state;
+  std::string known;
+  for (int value = gel::v1::JobState_MIN; value <= gel::v1::JobState_MAX; ++value)
+    if (gel::v1::JobState_IsValid(value) && value != gel::v1::JOB_STATE_UNSPECIFIED)
+      known += (known.empty() ? "" : ", ") + state_name(static_cast<gel::v1::JobState>(value));
+  throw UsageError("--state: unknown state '" + text + "' (" + known + ")");
+}
+
+bool is_terminal(gel::v1::JobState state) {
+  return state == gel::v1::JOB_STATE_SUCCEEDED || state == gel::v1::JOB_STATE_FAILED ||
+         state == gel::v1::JOB_STATE_CANCELLED;
 }
 
 std::string read_file(const std::string& path) {

@@ -65,7 +65,11 @@ class Client {
   double timeout_seconds_;
 };
 
+// "queued", "running", ...: the enum's name without JOB_STATE_, in lower case; "unspecified"
+// for UNSPECIFIED or a value this build does not know.
 std::string state_name(gel::v1::JobState state);
+// A job or study that will not change state again (succeeded, failed or cancelled).
+bool is_terminal(gel::v1::JobState state);
 // "running", "RUNNING" or "JOB_STATE_RUNNING"; UsageError naming --state otherwise.
 gel::v1::JobState parse_state(const std::string& text);
 
