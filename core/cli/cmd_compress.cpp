@@ -49,6 +49,7 @@ struct CompressArgs {
   std::string preset;
   std::string scene_file;
   std::string config_file;
+  std::optional<std::int64_t> gel_frame;  // of a GSD or extended XYZ --gel; default the last
   std::string bond;
   std::optional<std::uint64_t> seed;
   std::string fidelity;
@@ -438,7 +439,8 @@ int run_compress(const CompressArgs& args) {
         std::cerr << "gelsim: the last checkpoint was unusable (" << result.checkpoint_problem << "); went on from the one before it\n";
     } else {
       std::optional<gel::Configuration> initial;
-      if (!args.config_file.empty()) initial = gel::read_configuration(args.config_file);
+      if (args.gel_frame && args.config_file.empty()) throw gel::InvalidArgument("--gel-frame", "picks a frame of the --gel file: give --gel FILE");
+      if (!args.config_file.empty()) initial = gel::read_configuration(args.config_file, args.gel_frame.value_or(gel::kLastFrame));
       const gel::v1::Scene scene = build_scene(args);
       if (options.out_dir.empty()) {
         // Said before the run rather than found out after it; a scene that is refused is refused first.
@@ -481,7 +483,10 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--preset", args->preset, "scene preset: quick (default), paper-bond1, paper-bond2");
   sub.add_option("--scene", args->scene_file, "scene JSON (gel.v1.Scene); options below override it");
   // --gel: --config means a daemon configuration file in geld; the old name still works here.
-  sub.add_option("--gel,--config", args->config_file, "start from this gel (a configuration file, .json or .pb) instead of generating one");
+  sub.add_option("--gel,--config", args->config_file,
+                 "start from this gel instead of generating one: a configuration file (.json, .pb), a GSD frame (.gsd) or an "
+                 "extended XYZ frame (.xyz) (docs/gelsim.md \"Data in\")");
+  sub.add_option("--gel-frame", args->gel_frame, "the frame of a GSD or XYZ --gel: 0, 1, ... or -1, -2, ... from the end (default: the last)");
   sub.add_option("--bond", args->bond, "bond preset: bond1, bond2");
   sub.add_option("--seed", args->seed, "generator seed, 1 to 2^63-1 (a negative number is refused, not wrapped)")
       ->check(gelsim::seed_validator());

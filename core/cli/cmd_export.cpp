@@ -4,8 +4,10 @@
 //   gelsim export runs/b1 --out frames/run.pvd           # VTU frames + a ParaView collection
 //   gelsim export a.pb b.pb --format xyz --out both.xyz  # several files, in the order given
 //   gelsim export runs/ens --out frames/rows.gsd         # an ensemble: frames/rows_seed_<seed>.gsd per member
-// A run directory contributes one frame per curve row that has a snapshot, with k, phi, P and
-// the steps taken; a configuration file contributes one frame at step 0.
+//   gelsim export run/trajectory.gsd --frame 3 --out f3.vtu # one frame of a GSD or XYZ file
+// A run directory contributes one frame per curve row that has a snapshot, with k, phi, P, the
+// steps taken and the run's bond law (so the forces are written); a configuration file
+// contributes one frame at step 0, with forces when --bond names the law.
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -18,24 +20,28 @@
 #include "gel/errors.hpp"
 #include "gel/export.hpp"
 #include "gel/run_directory.hpp"
+#include "gel/system.hpp"
 
 namespace {
 
 struct ExportOptions {
   std::vector<std::string> inputs;
-  std::string out, format;
+  std::string out, format, bond;
+  std::int64_t frame = gel::kLastFrame;
 };
 
-std::vector<gel::exporting::Frame> frames_of(const std::string& input) {
+std::vector<gel::exporting::Frame> frames_of(const std::string& input, const ExportOptions& o) {
   namespace fs = std::filesystem;
   std::vector<gel::exporting::Frame> frames;
   if (!fs::is_directory(input)) {
     gel::exporting::Frame frame;
-    frame.configuration = gel::read_configuration(input);
+    frame.configuration = gel::read_configuration(input, o.frame);
+    if (!o.bond.empty()) frame.bond_law = gel::bond_preset(o.bond, "--bond");
     frames.push_back(std::move(frame));
     return frames;
   }
   const gel::v1::Curve curve = gel::read_curve(input);
+  const gel::SimParams params = gel::resolve_sim_params(curve.scene());
   for (const auto& row : curve.rows()) {
     if (row.snapshot().empty()) continue;
     gel::exporting::Frame frame;
@@ -44,6 +50,8 @@ std::vector<gel::exporting::Frame> frames_of(const std::string& input) {
     frame.k = row.k();
     frame.phi = row.phi();
     frame.p = row.p();
+    frame.bond_law = params.bond;
+    frame.effects = params.effects;
     frames.push_back(std::move(frame));
   }
   if (frames.empty())
@@ -77,7 +85,7 @@ int export_ensemble(const ExportOptions& o, const gel::EnsembleMembers& members,
   for (const std::string& member : members.finished) {
     const fs::path member_out = out.parent_path() / (out.stem().string() + "_" + fs::path(member).filename().string() +
                                                      out.extension().string());
-    write_frames(frames_of(member), format, member_out.string());
+    write_frames(frames_of(member, o), format, member_out.string());
   }
   return 0;
 }
@@ -95,7 +103,7 @@ int run_export(const ExportOptions& o) {
   }
   std::vector<Frame> frames;
   for (const auto& input : o.inputs)
-    for (auto& frame : frames_of(input)) frames.push_back(std::move(frame));
+    for (auto& frame : frames_of(input, o)) frames.push_back(std::move(frame));
   write_frames(frames, format, o.out);
   return 0;
 }
@@ -104,9 +112,11 @@ const gelsim::Registrar export_registrar{
     "export", "Write configurations or a run's snapshots as extended XYZ, GSD or VTU (OVITO, ASE, HOOMD, ParaView)",
     [](CLI::App& sub) -> std::function<int()> {
       auto o = std::make_shared<ExportOptions>();
-      sub.add_option("input", o->inputs, "configuration files (.json/.pb), compression run directories, or one ensemble's folder (a file per member)")->required();
+      sub.add_option("input", o->inputs, "configuration files (.json/.pb, or a frame of .gsd/.xyz), compression run directories, or one ensemble's folder (a file per member)")->required();
       sub.add_option("--out", o->out, "output file: .xyz, .gsd, .vtu (one frame) or .pvd (VTU frames)")->required();
       sub.add_option("--format", o->format, "xyz, gsd or vtu (default: from the --out ending)");
+      sub.add_option("--frame", o->frame, "the frame of a .gsd or .xyz input: 0, 1, ... or -1, -2, ... from the end (default -1, the last)");
+      sub.add_option("--bond", o->bond, "bond preset (bond1, bond2) of configuration-file inputs, to write their forces (a run directory's own law is used)");
       return [o] { return run_export(*o); };
     }};
 

@@ -421,6 +421,8 @@ class CompressionRun {
     frame.configuration = system_.configuration();
     frame.step = system_.step_count();
     frame.p = system_.wall_stress().p;
+    frame.bond_law = system_.params().bond;
+    frame.effects = system_.params().effects;
     trajectory_->append(frame);
     next_frame_step_ = (frame.step / options_.trajectory_every + 1) * options_.trajectory_every;
   }

@@ -15,6 +15,7 @@
 #include <google/protobuf/util/json_util.h>
 
 #include "gel/errors.hpp"
+#include "gel/import.hpp"
 #include "proto_json.hpp"
 #include "gel/units.hpp"
 
@@ -33,6 +34,11 @@ std::int32_t Configuration::add_particle(double px, double py, double ptheta) {
   y.push_back(py);
   theta.push_back(ptheta);
   if (!wall.empty()) wall.push_back(kNoWall);
+  if (has_velocities()) {
+    vx.push_back(0.0);
+    vy.push_back(0.0);
+    omega.push_back(0.0);
+  }
   return static_cast<std::int32_t>(x.size() - 1);
 }
 
@@ -70,6 +76,9 @@ gel::v1::Configuration to_proto(const Configuration& config) {
   message.mutable_x()->Assign(config.x.begin(), config.x.end());
   message.mutable_y()->Assign(config.y.begin(), config.y.end());
   message.mutable_theta()->Assign(config.theta.begin(), config.theta.end());
+  message.mutable_vx()->Assign(config.vx.begin(), config.vx.end());
+  message.mutable_vy()->Assign(config.vy.begin(), config.vy.end());
+  message.mutable_omega()->Assign(config.omega.begin(), config.omega.end());
   for (const BondRecord& bond : config.bonds) {
     message.add_bond_i(bond.i);
     message.add_bond_j(bond.j);
@@ -105,6 +114,18 @@ Configuration from_proto(const gel::v1::Configuration& message) {
     require_finite("configuration.x[" + std::to_string(i) + "]", config.x[i]);
     require_finite("configuration.y[" + std::to_string(i) + "]", config.y[i]);
     require_finite("configuration.theta[" + std::to_string(i) + "]", config.theta[i]);
+  }
+  if (message.vx_size() != 0 || message.vy_size() != 0 || message.omega_size() != 0) {
+    if (message.vx_size() != n || message.vy_size() != n || message.omega_size() != n)
+      throw InvalidArgument("configuration.vx", "vx, vy and omega need one entry per particle (or none: at rest)");
+    config.vx.assign(message.vx().begin(), message.vx().end());
+    config.vy.assign(message.vy().begin(), message.vy().end());
+    config.omega.assign(message.omega().begin(), message.omega().end());
+    for (int i = 0; i < n; ++i) {
+      require_finite("configuration.vx[" + std::to_string(i) + "]", config.vx[i]);
+      require_finite("configuration.vy[" + std::to_string(i) + "]", config.vy[i]);
+      require_finite("configuration.omega[" + std::to_string(i) + "]", config.omega[i]);
+    }
   }
   const int nb = message.bond_i_size();
   if (message.bond_j_size() != nb || message.bond_bix_size() != nb || message.bond_biy_size() != nb ||
@@ -203,27 +224,24 @@ bool is_json_path(const std::string& path) {
 
 // What a configuration file may be, for the messages that refuse one.
 constexpr char kConfigurationFormats[] =
-    "a gel is read as a gel.v1 configuration, JSON in a .json file or binary protobuf in any other "
-    "(as gelsim generate and a run's snapshots/ write them)";
+    "a gel is read from a gel.v1 configuration (JSON in a .json file, binary protobuf in any other, as gelsim "
+    "generate and a run's snapshots/ write them), a GSD file (.gsd) or an extended XYZ file (.xyz, .extxyz)";
 
-// Formats that gelsim export writes but nothing reads back yet: named, rather than read as a
-// damaged protobuf message (which the bytes of a GSD file may even parse as).
-void refuse_foreign_format(const std::string& path) {
+std::string lower_extension(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  const char* format = extension == ".gsd"                         ? "GSD"
-                       : extension == ".xyz" || extension == ".extxyz" ? "XYZ"
-                       : extension == ".vtu" || extension == ".pvd" ? "VTK"
-                                                                    : nullptr;
-  if (format)
-    throw InvalidArgument("path", "'" + path + "': " + format +
-                                      " is not read (gelsim export writes GSD, XYZ and VTK files; none is read back yet): " +
-                                      kConfigurationFormats);
+  return extension;
 }
 }  // namespace
 
-Configuration read_configuration(const std::string& path) {
-  refuse_foreign_format(path);
+Configuration read_configuration(const std::string& path, std::int64_t frame) {
+  const std::string extension = lower_extension(path);
+  if (extension == ".gsd") return importing::read_gsd(path, frame);
+  if (extension == ".xyz" || extension == ".extxyz") return importing::read_extended_xyz(path, frame);
+  // VTU is written for viewing: named, rather than read as a damaged protobuf message.
+  if (extension == ".vtu" || extension == ".pvd")
+    throw InvalidArgument("path", "'" + path + "': VTK files are written for viewing and not read back: " + kConfigurationFormats);
+  importing::resolve_frame(path, frame, 1);  // one configuration: frame 0 or -1
   const std::string contents = read_file(path);
   gel::v1::Configuration message;
   if (is_json_path(path)) {

@@ -25,7 +25,7 @@ constexpr double kBytesPerParticle =
     10 * 8 + 1        // positions, orientation (cos, sin), velocities, forces: SoA doubles; wall side
     + 6 * 4           // neighbour rebuild: degree, cell index and members, cell starts, fill, incidence start
     + 8               // stiffness check's per-particle sum
-    + 2 * (3 * 8 + 4) // snapshot: x, y, theta, wall; as a Configuration and as its message
+    + 2 * (6 * 8 + 4) // snapshot: x, y, theta, velocities, wall; as a Configuration and as its message
     + 2 * (10 * 8);   // checkpoint: the state as a message and serialised
 constexpr double kBytesPerBond =
     2 * (2 * 4 + 6 * 8)  // Bond (i, j, contact points, image shift), vector capacity up to 2x
@@ -40,13 +40,15 @@ constexpr double kBytesPerRowSlice = 3 * 8;        // phi profile: curve row, it
 constexpr double kBytesPerRow = 1024;              // the rest of a curve row, with copies
 constexpr double kGeneratorBytesPerArea = 3.1;     // cell grid and walk [bytes per a^2]: 690 MB at 2.25e8 a^2
 
-// On disk: a snapshot per row (gel.v1.Configuration protobuf: 3 doubles and a wall per
-// particle, 2 ints and 4 doubles per bond; measured 15-18 kB for 256 particles), two
-// checkpoints, and a GSD frame (positions, orientations, velocities, bonds).
-constexpr double kSnapshotBytesPerParticle = 3 * 9 + 2, kSnapshotBytesPerBond = 2 * 5 + 4 * 9;
+// On disk: a snapshot per row (gel.v1.Configuration protobuf: 6 doubles and a wall per
+// particle, 2 ints and 4 doubles per bond), two checkpoints, and a GSD frame (docs/gelsim.md "Data out":
+// the hoomd chunks in float, the exact state, forces and per-bond state in double).
+constexpr double kSnapshotBytesPerParticle = 6 * 9 + 2, kSnapshotBytesPerBond = 2 * 5 + 4 * 9;
 constexpr double kCheckpointBytesPerParticle = 10 * 9 + 2, kCheckpointBytesPerBond = 2 * 5 + 6 * 9;
 constexpr double kCheckpointBytesPerPair = 2 * 5 + 2 * 9;
-constexpr double kFrameBytesPerParticle = 3 * 4 + 4 * 4 + 3 * 4 + 4 + 8, kFrameBytesPerBond = 2 * 4 + 4;
+constexpr double kFrameBytesPerParticle = 4 + 3 * 4 + 4 * 4 + 3 * 4 + 4 * 4 + 3 * 4 + 4  // hoomd chunks, float
+                                          + 8 + 3 * 8 + 3 * 8 + 2 * 8 + 3 * 8,           // theta, forces, torques, exact state
+                 kFrameBytesPerBond = 4 + 2 * 4 + 4 * 8 + 11 * 8;  // type, group, body-frame contacts, bond state
 
 }  // namespace
 

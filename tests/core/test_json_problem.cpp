@@ -123,20 +123,21 @@ TEST(ReadConfiguration, SaysWhichFormatsItReads) {
     }
     return std::string("accepted");
   };
-  // A GSD file was read as a damaged protobuf message: "not a binary configuration".
-  for (const char* name : {"frame.gsd", "frame.xyz", "frame.vtu"}) {
-    std::ofstream((dir / name).string()) << "GSD\x65\x65";
-    const std::string message = refusal((dir / name).string());
-    EXPECT_NE(message.find("is not read (gelsim export writes GSD, XYZ and VTK files; none is read back yet)"), std::string::npos)
-        << message;
-    EXPECT_NE(message.find("gel.v1 configuration, JSON in a .json file or binary protobuf in any other"), std::string::npos)
-        << message;
-  }
+  // A GSD file was read as a damaged protobuf message: "not a binary configuration". Now each
+  // ending goes to its reader (test_import.cpp), which says what is wrong in its format's words.
+  std::ofstream((dir / "frame.gsd").string()) << "GSD\x65\x65";
+  EXPECT_NE(refusal((dir / "frame.gsd").string()).find("not a GSD file (no GSD header)"), std::string::npos);
+  std::ofstream((dir / "frame.xyz").string()) << "GSD\x65\x65";
+  EXPECT_NE(refusal((dir / "frame.xyz").string()).find("is not extended XYZ: frame 0 starts with"), std::string::npos);
+  std::ofstream((dir / "frame.vtu").string()) << "GSD\x65\x65";
+  const std::string vtu = refusal((dir / "frame.vtu").string());
+  EXPECT_NE(vtu.find("VTK files are written for viewing and not read back"), std::string::npos) << vtu;
+  EXPECT_NE(vtu.find("a GSD file (.gsd) or an extended XYZ file (.xyz, .extxyz)"), std::string::npos) << vtu;
   std::ofstream((dir / "bad.json").string()) << R"({"format_version": 1, "lx": "wide"})";
   EXPECT_EQ(refusal((dir / "bad.json").string()),
             "path: '" + (dir / "bad.json").string() + "' is not a configuration: lx: must be a finite number, got \"wide\"");
   std::ofstream((dir / "noise.pb").string()) << std::string("\xff\xff\xff\xff\xff", 5);
-  EXPECT_NE(refusal((dir / "noise.pb").string()).find("is not a binary gel.v1 configuration: a gel is read as"), std::string::npos);
+  EXPECT_NE(refusal((dir / "noise.pb").string()).find("is not a binary gel.v1 configuration: a gel is read from"), std::string::npos);
   std::filesystem::remove_all(dir);
 }
 

@@ -343,6 +343,8 @@ for key, value in configuration.items():
 snapshot = gel.read_configuration(os.path.join(data_dir, job["out_dir"], "m0-seed1", member0["snapshot"][3]))
 assert len(snapshot["x"]) == 64 and len(snapshot["wall"]) == 64 and not snapshot["periodic_y"]
 assert set(numpy.unique(snapshot["wall"])) <= {0, 1, 2} and snapshot["wall_top"] > snapshot["wall_bottom"]
+# A generated gel is at rest (no velocities); a snapshot holds the engine's, one per particle.
+assert len(configuration["vx"]) == 0 and len(snapshot["vx"]) == 64 and len(snapshot["omega"]) == 64
 print("ok: read_configuration (.json, .pb, a job's snapshot)")
 
 # A job's trajectory: the scene asks for a frame every 20000 steps; gsd.hoomd (Debian's

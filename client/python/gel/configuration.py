@@ -12,7 +12,8 @@ def read_configuration(path):
     Protocol Buffers' JSON mapping and any other name binary protobuf.
 
     Per particle (length N): x, y [a], theta [rad] (float64), wall (int32: 0 free, 1 bottom,
-    2 top; empty before walls exist). Per bond (length B): bond_i, bond_j (int32 particle
+    2 top; empty before walls exist), vx, vy [a/t0], omega [1/t0] (float64; empty: at rest,
+    as a generated gel; a run's snapshots hold the engine's velocities). Per bond (length B): bond_i, bond_j (int32 particle
     indices), bond_bix, bond_biy, bond_bjx, bond_bjy (the contact point on i and on j, unit
     vectors in the particle's body frame: rotate by theta). Box: lx, ly [a], periodic_y (False once
     walls replaced the y boundary), wall_bottom, wall_top [a]. Also seed, format_version,
@@ -40,6 +41,7 @@ def read_configuration(path):
     return {
         "x": floats(configuration.x), "y": floats(configuration.y), "theta": floats(configuration.theta),
         "wall": ints(configuration.wall),
+        "vx": floats(configuration.vx), "vy": floats(configuration.vy), "omega": floats(configuration.omega),
         "bond_i": ints(configuration.bond_i), "bond_j": ints(configuration.bond_j),
         "bond_bix": floats(configuration.bond_bix), "bond_biy": floats(configuration.bond_biy),
         "bond_bjx": floats(configuration.bond_bjx), "bond_bjy": floats(configuration.bond_bjy),

@@ -32,6 +32,8 @@ struct Configuration {
   double ly = 0;
   bool periodic_y = true;  // false once walls replaced the y boundary (or for an open box)
   std::vector<double> x, y, theta;
+  // Velocities [a/t0] and angular velocities [1/t0]: empty (at rest) or one per particle.
+  std::vector<double> vx, vy, omega;
   std::vector<BondRecord> bonds;
   std::vector<std::int8_t> wall;  // empty (no walls) or one WallSide per particle
   double wall_bottom = 0;
@@ -41,6 +43,7 @@ struct Configuration {
 
   std::size_t size() const { return x.size(); }
   bool has_walls() const { return !wall.empty(); }
+  bool has_velocities() const { return !vx.empty(); }
   // Height available to the particles: the wall gap between walls, L_y otherwise.
   double height() const { return has_walls() ? wall_top - wall_bottom : ly; }
   // phi = pi a^2 N / (L_x height).
@@ -60,8 +63,15 @@ gel::v1::Configuration to_proto(const Configuration& config);
 // Validates sizes and values; throws InvalidArgument naming the field.
 Configuration from_proto(const gel::v1::Configuration& message);
 
-// Throws InvalidArgument (field "path") when the file cannot be read or parsed.
-Configuration read_configuration(const std::string& path);
+// The frame of a file that holds several (GSD, extended XYZ): an index from 0, or from the end
+// when negative; kLastFrame is the last one.
+inline constexpr std::int64_t kLastFrame = -1;
+
+// Reads a gel.v1 configuration (.json or binary protobuf), or a frame of a GSD (.gsd) or
+// extended XYZ (.xyz, .extxyz) file through gel/import.hpp. A gel.v1 file is one frame (0 or
+// kLastFrame). Throws InvalidArgument (field "path") when the file cannot be read or used,
+// ("frame") when it has no such frame.
+Configuration read_configuration(const std::string& path, std::int64_t frame = kLastFrame);
 // Writes atomically (temporary file, then rename).
 void write_configuration(const Configuration& config, const std::string& path);
 

@@ -6,15 +6,20 @@
 //
 // What every format carries: positions, the orientation angle theta (as a quaternion about z
 // where the format has one), the radius, wall membership (0 free, 1 bottom wall, 2 top wall)
-// and, where the format has them, the bonds. Lengths are in units of the particle radius a.
+// and, where the format has them, the bonds. GSD and VTU also carry the velocities, the
+// contact forces and torques per particle and the state of every bond (BondState). Lengths
+// are in units of the particle radius a.
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "gel/bond_law.hpp"
 #include "gel/configuration.hpp"
+#include "gel/effects.hpp"
 
 namespace gel::exporting {
 
@@ -26,7 +31,35 @@ struct Frame {
   int k = -1;             // compression target index, -1 when not an equilibrium row
   double phi = -1;        // packing fraction; < 0: computed from the configuration
   double p = std::numeric_limits<double>::quiet_NaN();  // P_y at this frame [F0/a^2]
+  // The bond law and effects of the run, when known: the bond forces and the particles'
+  // contact forces and torques are written only then (the geometry of the bonds always).
+  std::optional<BondLaw> bond_law;
+  unsigned effects = kAllEffects;
 };
+
+// The state of every bond of a configuration (MODEL.md "Bonds"), in bond order, computed from
+// the configuration by the engine's evaluator: what a GSD or VTU frame says of each bond.
+struct BondState {
+  // Geometry, always: the gap delta [a], the contact points as lab-frame unit vectors xi_ij
+  // (on i) and xi_ji (on j), the sliding displacement d [a] and the bending angle phi [rad].
+  std::vector<double> gap;
+  std::vector<double> contact_ix, contact_iy, contact_jx, contact_jy;
+  std::vector<double> sliding_x, sliding_y;
+  std::vector<double> bending;
+  // With a bond law only (else empty): F_N . n [F0] (positive pulls i towards j), F_T [F0]
+  // and the rolling moment M_R on i [F0 a].
+  std::vector<double> normal_force, sliding_force_x, sliding_force_y, rolling_moment;
+  bool with_forces = false;
+};
+BondState bond_state(const Configuration& configuration, const BondLaw* law, unsigned effects);
+
+// The contact forces F_C and torques T_C on every particle (MODEL.md "Motion"): the bonds'
+// loads summed in bond order (no drag). A wall particle's is the load it passes to its wall.
+struct ParticleLoads {
+  std::vector<double> fx, fy, torque;
+};
+// Needs a BondState with forces; empty arrays otherwise.
+ParticleLoads particle_loads(const Configuration& configuration, const BondState& bonds);
 
 enum class Format { kExtendedXyz, kGsd, kVtu };
 

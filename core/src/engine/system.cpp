@@ -53,9 +53,18 @@ System::System(const Configuration& config, const SimParams& params)
     orient_c_[i] = std::cos(config.theta[i]);
     orient_s_[i] = std::sin(config.theta[i]);
   }
-  vx_.assign(n, 0.0);
-  vy_.assign(n, 0.0);
-  omega_.assign(n, 0.0);
+  // A configuration without velocities is at rest.
+  if (config.has_velocities()) {
+    if (config.vx.size() != n || config.vy.size() != n || config.omega.size() != n)
+      throw InvalidArgument("configuration.vx", "vx, vy and omega need one entry per particle (or none: at rest)");
+    vx_ = config.vx;
+    vy_ = config.vy;
+    omega_ = config.omega;
+  } else {
+    vx_.assign(n, 0.0);
+    vy_.assign(n, 0.0);
+    omega_.assign(n, 0.0);
+  }
   fx_.assign(n, 0.0);
   fy_.assign(n, 0.0);
   torque_.assign(n, 0.0);
@@ -74,9 +83,12 @@ System::System(const Configuration& config, const SimParams& params)
     wall_top_ = config.wall_top;
     wall_.assign(n, kNoWall);
     for (std::size_t i = 0; i < n; ++i) {
-      if (y_[i] - kRadius < wall_bottom_ - params_.max_overlap || y_[i] + kRadius > wall_top_ + params_.max_overlap)
-        throw InvalidArgument("configuration.y[" + std::to_string(i) + "]", "particle lies outside the walls");
       const std::int8_t side = config.wall.empty() ? std::int8_t{kNoWall} : config.wall[i];
+      // A wall particle keeps the offset it stuck with, which may reach past the wall (it sticks
+      // at the first look after it touched): only free particles must lie between the walls.
+      if (side == kNoWall &&
+          (y_[i] - kRadius < wall_bottom_ - params_.max_overlap || y_[i] + kRadius > wall_top_ + params_.max_overlap))
+        throw InvalidArgument("configuration.y[" + std::to_string(i) + "]", "particle lies outside the walls");
       if (side != kNoWall) {
         wall_[i] = side;
         wall_members_.push_back(static_cast<std::int32_t>(i));
@@ -174,6 +186,9 @@ Configuration System::configuration() const {
   if (periodic_y_) wrap_into(config.y, ly_);
   config.theta.resize(size());
   for (std::size_t i = 0; i < size(); ++i) config.theta[i] = theta(i);
+  config.vx = vx_;
+  config.vy = vy_;
+  config.omega = omega_;
   config.bonds.reserve(bonds_.size());
   for (const Bond& bond : bonds_)
     config.bonds.push_back(BondRecord{bond.i, bond.j, bond.bix, bond.biy, bond.bjx, bond.bjy});

@@ -8,52 +8,26 @@
 // as large, when full. Each frame is appended as data chunks first and index entries second,
 // so a run killed mid-frame leaves the frames before it readable.
 //
-// The hoomd schema keeps positions in a box centred on the origin: x - L_x/2, y - L_y/2. The
-// exact angle theta (the orientation quaternion is float) and the compression state go to
-// log/ chunks, which gsd.hoomd returns in frame.log.
+// The hoomd schema keeps positions in a box centred on the origin: x - L_x/2, y - L_y/2, and
+// its particle data in float. The exact state (log/gel/..., log/particles/theta, the bonds'
+// body-frame contact points), the contact forces and torques, the per-bond state and the
+// compression state go to log/ chunks, which gsd.hoomd returns in frame.log (docs/gelsim.md "Data out").
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 
 #include "file_output.hpp"
+#include "gsd_file_layer.hpp"
 #include "gel/export.hpp"
 #include "gel/units.hpp"
 
 namespace gel::exporting {
 namespace {
 
-constexpr std::uint64_t kMagic = 0x65DF65DF65DF65DFULL;
-constexpr std::uint32_t version(std::uint32_t major, std::uint32_t minor) { return major << 16 | minor; }
-constexpr std::uint64_t kNameSize = 64;  // the name list is allocated in 64-byte segments
-
-struct Header {
-  std::uint64_t magic;
-  std::uint64_t index_location;
-  std::uint64_t index_allocated_entries;
-  std::uint64_t namelist_location;
-  std::uint64_t namelist_allocated_entries;
-  std::uint32_t schema_version;
-  std::uint32_t gsd_version;
-  char application[64];
-  char schema[64];
-  char reserved[80];
-};
-static_assert(sizeof(Header) == 256);
-
-struct IndexEntry {
-  std::uint64_t frame;
-  std::uint64_t N;
-  std::int64_t location;
-  std::uint32_t M;
-  std::uint16_t id;
-  std::uint8_t type;
-  std::uint8_t flags;
-};
-static_assert(sizeof(IndexEntry) == 32);
-
-enum Type : std::uint8_t { kUint8 = 1, kUint16, kUint32, kUint64, kInt8, kInt16, kInt32, kInt64, kFloat, kDouble };
+using namespace gel::gsd;
 
 // Chunk names; a frame's entries are written in this order, which is the order of their ids.
 enum Name : std::uint16_t {
@@ -65,24 +39,50 @@ enum Name : std::uint16_t {
   kParticleTypeid,
   kPosition,
   kOrientation,
+  kVelocity,
+  kAngmom,
+  kMomentInertia,
   kParticleDiameter,
   kBondsN,
   kBondTypes,
   kBondTypeid,
   kBondGroup,
   kLogTheta,
+  kLogForces,
+  kLogTorques,
   kLogPhi,
   kLogK,
   kLogP,
   kLogWallBottom,
   kLogWallTop,
+  kLogGelBox,
+  kLogGelWalls,
+  kLogGelPeriodicY,
+  kLogGelSeed,
+  kLogGelPosition,
+  kLogGelVelocity,
+  kLogBodyContactI,
+  kLogBodyContactJ,
+  kLogBondGap,
+  kLogContactI,
+  kLogContactJ,
+  kLogSliding,
+  kLogBending,
+  kLogNormalForce,
+  kLogSlidingForce,
+  kLogRollingMoment,
   kNameCount
 };
 constexpr std::array<const char*, kNameCount> kNames = {
     "configuration/step", "configuration/dimensions", "configuration/box", "particles/N", "particles/types",
-    "particles/typeid", "particles/position", "particles/orientation", "particles/diameter", "bonds/N",
-    "bonds/types", "bonds/typeid", "bonds/group", "log/particles/theta", "log/compression/phi",
-    "log/compression/k", "log/compression/P", "log/walls/bottom", "log/walls/top"};
+    "particles/typeid", "particles/position", "particles/orientation", "particles/velocity", "particles/angmom",
+    "particles/moment_inertia", "particles/diameter", "bonds/N", "bonds/types", "bonds/typeid", "bonds/group",
+    "log/particles/theta", "log/particles/forces", "log/particles/torques", "log/compression/phi",
+    "log/compression/k", "log/compression/P", "log/walls/bottom", "log/walls/top", "log/gel/box", "log/gel/walls",
+    "log/gel/periodic_y", "log/gel/seed", "log/gel/position", "log/gel/velocity", "log/bonds/body_contact_i",
+    "log/bonds/body_contact_j", "log/bonds/gap", "log/bonds/contact_i", "log/bonds/contact_j",
+    "log/bonds/sliding_displacement", "log/bonds/bending_angle", "log/bonds/normal_force", "log/bonds/sliding_force",
+    "log/bonds/rolling_moment"};
 
 // Particle types are the wall membership: typeid 0 free, 1 bottom wall, 2 top wall.
 constexpr std::array<const char*, 3> kParticleTypeNames = {"free", "bottom_wall", "top_wall"};
@@ -144,44 +144,115 @@ class GsdWriter final : public FrameWriter {
     const auto particle_types = type_matrix({kParticleTypeNames.begin(), kParticleTypeNames.end()}, width);
     chunk(kParticleTypes, kInt8, kParticleTypeNames.size(), width, particle_types.data(), particle_types.size());
     std::vector<std::uint32_t> typeid_(n);
-    std::vector<float> position(3 * n), orientation(4 * n), diameter(n, float(kDiameter));
+    std::vector<float> position(3 * n), orientation(4 * n), velocity(3 * n, 0.f), angmom(4 * n, 0.f),
+        moment_inertia(3 * n, 0.f), diameter(n, float(kDiameter));
+    std::vector<double> exact_position(2 * n), exact_velocity(3 * n, 0.0);
     for (std::uint64_t i = 0; i < n; ++i) {
       typeid_[i] = c.has_walls() ? static_cast<std::uint32_t>(c.wall[i]) : 0;
       position[3 * i] = float(c.x[i] - 0.5 * c.lx);
       position[3 * i + 1] = float(c.y[i] - 0.5 * c.ly);
       position[3 * i + 2] = 0;
       // A rotation by theta about z: q = (cos theta/2, 0, 0, sin theta/2), scalar first.
-      orientation[4 * i] = float(std::cos(0.5 * c.theta[i]));
-      orientation[4 * i + 3] = float(std::sin(0.5 * c.theta[i]));
+      const double q_w = std::cos(0.5 * c.theta[i]), q_z = std::sin(0.5 * c.theta[i]);
+      orientation[4 * i] = float(q_w);
+      orientation[4 * i + 3] = float(q_z);
+      moment_inertia[3 * i + 2] = float(kInertia);
+      exact_position[2 * i] = c.x[i];
+      exact_position[2 * i + 1] = c.y[i];
+      if (!c.has_velocities()) continue;
+      velocity[3 * i] = float(c.vx[i]);
+      velocity[3 * i + 1] = float(c.vy[i]);
+      // HOOMD's angular momentum quaternion p = 2 q (0, L) with the body-frame L = (0, 0, I omega).
+      const double l_z = kInertia * c.omega[i];
+      angmom[4 * i] = float(-2 * q_z * l_z);
+      angmom[4 * i + 3] = float(2 * q_w * l_z);
+      exact_velocity[3 * i] = c.vx[i];
+      exact_velocity[3 * i + 1] = c.vy[i];
+      exact_velocity[3 * i + 2] = c.omega[i];
     }
     chunk(kParticleTypeid, kUint32, n, 1, typeid_.data(), n * sizeof(std::uint32_t));
     chunk(kPosition, kFloat, n, 3, position.data(), position.size() * sizeof(float));
     chunk(kOrientation, kFloat, n, 4, orientation.data(), orientation.size() * sizeof(float));
+    chunk(kVelocity, kFloat, n, 3, velocity.data(), velocity.size() * sizeof(float));
+    chunk(kAngmom, kFloat, n, 4, angmom.data(), angmom.size() * sizeof(float));
+    chunk(kMomentInertia, kFloat, n, 3, moment_inertia.data(), moment_inertia.size() * sizeof(float));
     chunk(kParticleDiameter, kFloat, n, 1, diameter.data(), diameter.size() * sizeof(float));
     const std::uint32_t bond_count = static_cast<std::uint32_t>(bonds);
     chunk(kBondsN, kUint32, 1, 1, &bond_count, sizeof bond_count);
     const auto bond_types = type_matrix({"bond"}, width);
     chunk(kBondTypes, kInt8, 1, width, bond_types.data(), bond_types.size());
     std::vector<std::uint32_t> bond_typeid(bonds, 0), group(2 * bonds);
+    std::vector<double> body_i(2 * bonds), body_j(2 * bonds);
     for (std::uint64_t b = 0; b < bonds; ++b) {
       group[2 * b] = static_cast<std::uint32_t>(c.bonds[b].i);
       group[2 * b + 1] = static_cast<std::uint32_t>(c.bonds[b].j);
+      body_i[2 * b] = c.bonds[b].bix;
+      body_i[2 * b + 1] = c.bonds[b].biy;
+      body_j[2 * b] = c.bonds[b].bjx;
+      body_j[2 * b + 1] = c.bonds[b].bjy;
     }
     // Written even when empty: a chunk missing from a frame would be read from frame 0.
     chunk(kBondTypeid, kUint32, bonds, 1, bond_typeid.data(), bonds * sizeof(std::uint32_t));
     chunk(kBondGroup, kUint32, bonds, 2, group.data(), group.size() * sizeof(std::uint32_t));
     chunk(kLogTheta, kDouble, n, 1, c.theta.data(), n * sizeof(double));
+    // Contact forces and torques as HOOMD logs them (N x 3), NaN when the bond law is unknown.
+    const BondState state = bond_state(c, frame.bond_law ? &*frame.bond_law : nullptr, frame.effects);
+    const ParticleLoads loads = particle_loads(c, state);
+    const double unknown = std::numeric_limits<double>::quiet_NaN();
+    std::vector<double> forces(3 * n, state.with_forces ? 0.0 : unknown), torques(3 * n, state.with_forces ? 0.0 : unknown);
+    for (std::uint64_t i = 0; i < n && state.with_forces; ++i) {
+      forces[3 * i] = loads.fx[i];
+      forces[3 * i + 1] = loads.fy[i];
+      torques[3 * i + 2] = loads.torque[i];
+    }
+    chunk(kLogForces, kDouble, n, 3, forces.data(), forces.size() * sizeof(double));
+    chunk(kLogTorques, kDouble, n, 3, torques.data(), torques.size() * sizeof(double));
     const double phi = frame_phi(frame);
     chunk(kLogPhi, kDouble, 1, 1, &phi, sizeof phi);
     // Always written (k = -1, NaN when unknown) for the same reason.
     const std::int32_t k = frame.k;
     chunk(kLogK, kInt32, 1, 1, &k, sizeof k);
     chunk(kLogP, kDouble, 1, 1, &frame.p, sizeof frame.p);
-    const double no_wall = std::numeric_limits<double>::quiet_NaN();
-    const double bottom = c.has_walls() ? c.wall_bottom - 0.5 * c.ly : no_wall;
-    const double top = c.has_walls() ? c.wall_top - 0.5 * c.ly : no_wall;
+    const double bottom = c.has_walls() ? c.wall_bottom - 0.5 * c.ly : unknown;
+    const double top = c.has_walls() ? c.wall_top - 0.5 * c.ly : unknown;
     chunk(kLogWallBottom, kDouble, 1, 1, &bottom, sizeof bottom);
     chunk(kLogWallTop, kDouble, 1, 1, &top, sizeof top);
+    // The exact state in the configuration's own frame (origin at the box corner, doubles), which
+    // gelsim reads back bit for bit: a run can start from any frame (src/import/gsd_reader.cpp).
+    const std::array<double, 2> box_exact = {c.lx, c.ly};
+    chunk(kLogGelBox, kDouble, 2, 1, box_exact.data(), sizeof box_exact);
+    const std::array<double, 2> walls_exact = {c.has_walls() ? c.wall_bottom : unknown, c.has_walls() ? c.wall_top : unknown};
+    chunk(kLogGelWalls, kDouble, 2, 1, walls_exact.data(), sizeof walls_exact);
+    const std::uint8_t periodic_y = c.periodic_y ? 1 : 0;
+    chunk(kLogGelPeriodicY, kUint8, 1, 1, &periodic_y, 1);
+    chunk(kLogGelSeed, kUint64, 1, 1, &c.seed, sizeof c.seed);
+    chunk(kLogGelPosition, kDouble, n, 2, exact_position.data(), exact_position.size() * sizeof(double));
+    chunk(kLogGelVelocity, kDouble, n, 3, exact_velocity.data(), exact_velocity.size() * sizeof(double));
+    chunk(kLogBodyContactI, kDouble, bonds, 2, body_i.data(), body_i.size() * sizeof(double));
+    chunk(kLogBodyContactJ, kDouble, bonds, 2, body_j.data(), body_j.size() * sizeof(double));
+    // Per-bond state (gel/export.hpp BondState); forces NaN when the bond law is unknown.
+    const auto pairs = [&](const std::vector<double>& first, const std::vector<double>& second) {
+      std::vector<double> out(2 * bonds, unknown);
+      for (std::uint64_t b = 0; b < bonds && !first.empty(); ++b) {
+        out[2 * b] = first[b];
+        out[2 * b + 1] = second[b];
+      }
+      return out;
+    };
+    const auto known = [&](const std::vector<double>& column) { return column.empty() ? std::vector<double>(bonds, unknown) : column; };
+    const auto per_bond = [&](Name name, const std::vector<double>& column, std::uint32_t columns) {
+      chunk(name, kDouble, bonds, columns, column.data(), column.size() * sizeof(double));
+    };
+    per_bond(kLogBondGap, state.gap, 1);
+    per_bond(kLogContactI, pairs(state.contact_ix, state.contact_iy), 2);
+    per_bond(kLogContactJ, pairs(state.contact_jx, state.contact_jy), 2);
+    per_bond(kLogSliding, pairs(state.sliding_x, state.sliding_y), 2);
+    per_bond(kLogBending, state.bending, 1);
+    per_bond(kLogNormalForce, known(state.normal_force), 1);
+    per_bond(kLogSlidingForce, pairs(state.sliding_force_x, state.sliding_force_y), 2);
+    per_bond(kLogRollingMoment, known(state.rolling_moment), 1);
+    for (std::size_t e = 1; e < entries.size(); ++e)
+      if (entries[e].id <= entries[e - 1].id) throw std::logic_error("GSD chunks out of name order");
     // A frame number must stay below the index size, and the frame's entries must fit.
     while (used_ + entries.size() + 1 > header_.index_allocated_entries || frames_ + 1 >= header_.index_allocated_entries)
       grow_index();
@@ -223,7 +294,7 @@ class GsdWriter final : public FrameWriter {
     std::string stored(names.size(), '\0');
     if (header_.namelist_allocated_entries * kNameSize != names.size() || !file_.read(stored.data(), stored.size(), header_.namelist_location) ||
         stored != names)
-      throw corrupt("written by another program (its chunk names differ)");
+      throw corrupt("written by another program or another version of gelsim (its chunk names differ)");
     std::vector<IndexEntry> index(header_.index_allocated_entries);
     if (!file_.read(index.data(), index.size() * sizeof(IndexEntry), header_.index_location)) throw corrupt("its index is cut short");
     used_ = 0;

@@ -5,8 +5,13 @@
 // see disks) and a line cell per bond. A bond that crosses the periodic x boundary would draw
 // across the whole box, so its line ends at an image of the far particle instead: an extra
 // point with ghost = 1 that repeats the data of the particle it images ("particle" holds the
-// index). The version string is an XML comment after the declaration. Point arrays: radius, theta, orientation (unit vector of the body x axis), wall
-// (0 free, 1 bottom, 2 top), particle, ghost. Cell array: bond (-1 for particle cells).
+// index). The version string is an XML comment after the declaration. Point arrays: radius,
+// theta, orientation (unit vector of the body x axis), wall (0 free, 1 bottom, 2 top), particle,
+// ghost, velocity, angular_velocity and, with the bond law, force and torque (the contact
+// loads). Cell arrays: bond (-1 for particle cells) and the bond state of gel/export.hpp (gap,
+// contact_i, contact_j, sliding_displacement, bending_angle and, with the bond law,
+// normal_force, sliding_force, rolling_moment), 0 on particle cells: VTK's ASCII reader stops
+// at "nan".
 #include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
@@ -87,10 +92,40 @@ std::string vtu_document(const Frame& frame) {
   point_array("wall", "Int32", 1, [&](std::size_t i, std::size_t) { return std::to_string(c.has_walls() ? int(c.wall[i]) : 0); });
   point_array("particle", "Int32", 1, [&](std::size_t i, std::size_t) { return std::to_string(i); });
   point_array("ghost", "UInt8", 1, [&](std::size_t, std::size_t p) { return std::string(p < n ? "0" : "1"); });
+  const auto at = [](const std::vector<double>& column, std::size_t i) { return column.empty() ? 0.0 : column[i]; };
+  point_array("velocity", "Float64", 3, [&](std::size_t i, std::size_t) {
+    return fmt::format("{:.17g} {:.17g} 0", at(c.vx, i), at(c.vy, i));
+  });
+  point_array("angular_velocity", "Float64", 1, [&](std::size_t i, std::size_t) { return fmt::format("{:.17g}", at(c.omega, i)); });
+  const BondState state = bond_state(c, frame.bond_law ? &*frame.bond_law : nullptr, frame.effects);
+  if (state.with_forces) {
+    const ParticleLoads loads = particle_loads(c, state);
+    point_array("force", "Float64", 3, [&](std::size_t i, std::size_t) { return fmt::format("{:.17g} {:.17g} 0", loads.fx[i], loads.fy[i]); });
+    point_array("torque", "Float64", 1, [&](std::size_t i, std::size_t) { return fmt::format("{:.17g}", loads.torque[i]); });
+  }
   xml += "</PointData>\n<CellData Scalars=\"bond\">\n<DataArray type=\"Int32\" Name=\"bond\" format=\"ascii\">\n";
   for (std::size_t i = 0; i < n; ++i) xml += "-1\n";
   for (std::size_t b = 0; b < c.bonds.size(); ++b) xml += std::to_string(b) + "\n";
-  xml += "</DataArray>\n</CellData>\n<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+  xml += "</DataArray>\n";
+  // One value (or 2D vector, written with z = 0) per bond line; particle cells hold 0.
+  const auto bond_array = [&](const char* name, const std::vector<double>& first, const std::vector<double>* second) {
+    xml += fmt::format("<DataArray type=\"Float64\" Name=\"{}\" NumberOfComponents=\"{}\" format=\"ascii\">\n", name, second ? 3 : 1);
+    for (std::size_t i = 0; i < n; ++i) xml += second ? "0 0 0\n" : "0\n";
+    for (std::size_t b = 0; b < c.bonds.size(); ++b)
+      xml += second ? fmt::format("{:.17g} {:.17g} 0\n", first[b], (*second)[b]) : fmt::format("{:.17g}\n", first[b]);
+    xml += "</DataArray>\n";
+  };
+  bond_array("gap", state.gap, nullptr);
+  bond_array("contact_i", state.contact_ix, &state.contact_iy);
+  bond_array("contact_j", state.contact_jx, &state.contact_jy);
+  bond_array("sliding_displacement", state.sliding_x, &state.sliding_y);
+  bond_array("bending_angle", state.bending, nullptr);
+  if (state.with_forces) {
+    bond_array("normal_force", state.normal_force, nullptr);
+    bond_array("sliding_force", state.sliding_force_x, &state.sliding_force_y);
+    bond_array("rolling_moment", state.rolling_moment, nullptr);
+  }
+  xml += "</CellData>\n<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n";
   for (std::size_t p = 0; p < points; ++p) xml += fmt::format("{:.17g} {:.17g} 0\n", px[p], py[p]);
   xml += "</DataArray>\n</Points>\n<Cells>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
   for (std::size_t i = 0; i < n; ++i) xml += std::to_string(i) + "\n";
