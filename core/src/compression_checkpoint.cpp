@@ -30,8 +30,8 @@ void encode_state(const CompressionState& s, gel::v1::ProtocolState& m) {
   m.set_next_exam_step(s.next_exam_step);
   m.set_wait_start_time(s.wait_start_time);
   m.set_previous_p(s.previous_p);
-  m.set_ruptures_at_previous(s.breaks_at_previous);
-  m.set_spanned(s.spanned != 0);
+  m.set_ruptures_at_previous(s.ruptures_at_previous);
+  m.set_spanned(s.spanned);
   m.set_wall_seconds_before(s.wall_seconds_before);
   m.set_wall_speed_factor(s.wall_speed_factor);
   m.set_drag_at_control(s.drag_at_control);
@@ -46,20 +46,21 @@ void encode_state(const CompressionState& s, gel::v1::ProtocolState& m) {
   relax.set_residual(s.relax.residual);
   relax.set_force_scale(s.relax.force_scale);
   relax.set_tolerance_factor(s.relax.tolerance_factor);
-  relax.set_converged(s.relax.converged != 0);
-  relax.set_stalled(s.relax.stalled != 0);
+  relax.set_converged(s.relax.converged);
+  relax.set_stalled(s.relax.stalled);
 }
 
 CompressionState decode_state(const gel::v1::ProtocolState& m) {
+  if (m.phase() < kMoving || m.phase() > kRelaxing || m.k() < 1) throw std::runtime_error("its protocol state is invalid");
   CompressionState s;
   s.phi0 = m.phi0();
   s.k = m.k();
-  s.phase = m.phase();
+  s.phase = static_cast<Phase>(m.phase());
   s.next_exam_step = m.next_exam_step();
   s.wait_start_time = m.wait_start_time();
   s.previous_p = m.previous_p();
-  s.breaks_at_previous = m.ruptures_at_previous();
-  s.spanned = m.spanned() ? 1 : 0;
+  s.ruptures_at_previous = m.ruptures_at_previous();
+  s.spanned = m.spanned();
   s.wall_seconds_before = m.wall_seconds_before();
   s.wall_speed_factor = m.wall_speed_factor();
   s.drag_at_control = m.drag_at_control();
@@ -74,9 +75,8 @@ CompressionState decode_state(const gel::v1::ProtocolState& m) {
   s.relax.residual = relax.residual();
   s.relax.force_scale = relax.force_scale();
   s.relax.tolerance_factor = relax.tolerance_factor();
-  s.relax.converged = relax.converged() ? 1 : 0;
-  s.relax.stalled = relax.stalled() ? 1 : 0;
-  if (s.phase < kMoving || s.phase > kRelaxing || s.k < 1) throw std::runtime_error("its protocol state is invalid");
+  s.relax.converged = relax.converged();
+  s.relax.stalled = relax.stalled();
   return s;
 }
 

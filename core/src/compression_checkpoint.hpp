@@ -11,19 +11,20 @@
 
 namespace gel {
 
+// The numbers are the checkpoint's ProtocolState.phase.
 enum Phase : std::int32_t { kMoving = 0, kWaiting = 1, kDone = 2, kRelaxing = 3 };
 
 // Everything besides the engine and the curve that the protocol needs to continue.
 struct CompressionState {
   double phi0 = 0;                      // packing fraction at the start (row 0)
   std::int32_t k = 1;                   // current target, 1..k'
-  std::int32_t phase = kMoving;
-  std::int64_t next_exam_step = 0;      // engine step of the next equilibrium test
-  double wait_start_time = 0;           // simulated time when the walls stopped
-  double previous_p = 0;                // P' (P at the previous test, or at the stop)
-  std::int64_t breaks_at_previous = 0;  // ruptures the third test counts, at the previous test
-  std::uint8_t spanned = 0;             // the network spans: no more approach shortcut, and
-                                        // walls-then-affine goes on in affine steps
+  Phase phase = kMoving;
+  std::int64_t next_exam_step = 0;        // engine step of the next equilibrium test
+  double wait_start_time = 0;             // simulated time when the walls stopped
+  double previous_p = 0;                  // P' (P at the previous test, or at the stop)
+  std::int64_t ruptures_at_previous = 0;  // ruptures the third test counts, at the previous test
+  bool spanned = false;                   // the network spans: no more approach shortcut, and
+                                          // walls-then-affine goes on in affine steps
   double wall_seconds_before = 0;       // wall-clock seconds of earlier sessions
   double wall_speed_factor = 1;         // adaptive wall: current v / v_wall
   double drag_at_control = 0;           // adaptive wall: ledger at the previous control

@@ -154,7 +154,7 @@ class CompressionRun {
       for (int jump_count = 0; jump_count < jumps && gap > 0.0; ++jump_count) {
         const std::vector<char> group = top_wall_group(system_);
         if (group_touches_bottom_wall(system_, group)) {
-          state_.spanned = 1;
+          state_.spanned = true;
           break;
         }
         double jump = std::min(distance_to_first_contact(system_, group), std::max(gap, 0.0));
@@ -232,7 +232,7 @@ class CompressionRun {
     // The last step aimed at the target's height exactly; its wall positions round it.
     const double height = system_.wall_top() - system_.wall_bottom();
     if (height <= height_at(target_phi()) * (1 + 1e-12)) {
-      finish_target(state_.relax.converged != 0);
+      finish_target(state_.relax.converged);
     } else {
       state_.phase = kMoving;
     }
@@ -259,7 +259,7 @@ class CompressionRun {
     state_.phase = kWaiting;
     state_.wait_start_time = system_.time();
     state_.previous_p = system_.wall_stress().p;
-    state_.breaks_at_previous = counted_ruptures();
+    state_.ruptures_at_previous = counted_ruptures();
     state_.next_exam_step = system_.step_count() + settings_.m_exam;
   }
 
@@ -277,13 +277,13 @@ class CompressionRun {
     sample.p_top = stress.p_top;
     sample.p_bot = stress.p_bottom;
     sample.previous_p = state_.previous_p;
-    sample.bond_broke = counted_ruptures() != state_.breaks_at_previous;
+    sample.bond_broke = counted_ruptures() != state_.ruptures_at_previous;
     sample.max_speed = system_.max_speed();
     sample.spans = network_spans(system_);
     if (equilibrium_reached(sample, settings_)) return finish_target(true);
     if (system_.time() - state_.wait_start_time >= settings_.max_wait_time) return finish_target(false);
     state_.previous_p = stress.p;
-    state_.breaks_at_previous = counted_ruptures();
+    state_.ruptures_at_previous = counted_ruptures();
     state_.next_exam_step += settings_.m_exam;
   }
 
@@ -298,7 +298,7 @@ class CompressionRun {
     // walls-then-affine: the walls walk through the liquid while they gather the network, and
     // once a relaxed network spans, affine strain steps take it on. Decided before the row is
     // stored, so that the checkpoint written with it holds the decision.
-    if (settings_.affine_after_spanning && row.spans() && equilibrated) state_.spanned = 1;
+    if (settings_.affine_after_spanning && row.spans() && equilibrated) state_.spanned = true;
     store_row(std::move(row));
   }
 

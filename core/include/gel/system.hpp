@@ -102,8 +102,8 @@ struct RelaxState {
   double residual = 0;            // last max(|F|, |T|/a) over free particles [F0]
   double force_scale = 0;         // last mean bond force [F0]
   double tolerance_factor = 1;    // halved while the walls stay unbalanced
-  std::uint8_t converged = 0;
-  std::uint8_t stalled = 0;       // gave up: FIRE kept going uphill (N_negative^max)
+  bool converged = false;
+  bool stalled = false;           // gave up: FIRE kept going uphill (N_negative^max)
 };
 
 struct WallStress {

@@ -110,7 +110,7 @@ bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t 
   const double dt_max_start = options.dt_max_factor * step_gain * params_.dt;
   if (wall_v_bottom_ != 0.0 || wall_v_top_ != 0.0) set_wall_velocities(0.0, 0.0);
   if (!forces_valid_) compute_forces();
-  if (state.converged || state.stalled) return state.converged != 0;
+  if (state.converged || state.stalled) return state.converged;
   if (state.dt == 0.0) {
     // From rest, with the dynamics' own step.
     state = RelaxState{};
@@ -157,7 +157,7 @@ bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t 
     state.residual = std::sqrt(residual_sq);
     if (!std::isfinite(state.residual)) check_stability();
     if (converged_now(state.residual, state.iterations)) {
-      state.converged = 1;
+      state.converged = true;
       break;
     }
 
@@ -173,7 +173,7 @@ bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t 
       state.n_positive = 0;
       ++state.n_negative;
       if (state.n_negative > kMaxUphillSteps) {
-        state.stalled = 1;
+        state.stalled = true;
         break;
       }
       // Going uphill at the largest step is, more often than not, the step passing the
@@ -220,7 +220,7 @@ bool System::relax(RelaxState& state, const RelaxOptions& options, std::int64_t 
     std::fill(omega_.begin(), omega_.end(), 0.0);
     if (walls_active_) impose_wall_motion();
   }
-  return state.converged != 0;
+  return state.converged;
 }
 
 }  // namespace gel
