@@ -47,12 +47,14 @@ void print_curve_table(const gel::v1::GetCurveResponse& curve, std::ostream& out
     out << "# job " << curve.job_id() << " (" << gelctl::state_name(curve.state()) << "), seed " << member.seed()
         << ", " << member.curve().particles() << " particles, " << member.curve().rows_size() << " rows\n";
     out << std::setw(3) << "k" << std::setw(11) << "phi" << std::setw(11) << "target" << std::setw(13) << "P"
-        << std::setw(13) << "P_top" << std::setw(13) << "P_bot" << std::setw(8) << "z" << std::setw(12) << "E_stored"
+        << std::setw(13) << "P_top" << std::setw(13) << "P_bot" << std::setw(13) << "sigma_yy" << std::setw(8) << "z"
+        << std::setw(12) << "E_stored"
         << std::setw(12) << "E_diss" << std::setw(8) << "breaks" << std::setw(4) << "eq" << "\n";
     for (const auto& row : member.curve().rows()) {
       out << std::setw(3) << row.k() << std::setw(11) << format_number(row.phi(), 5) << std::setw(11)
           << format_number(row.target_phi(), 5) << std::setw(13) << format_number(row.p(), 5) << std::setw(13)
-          << format_number(row.p_top(), 5) << std::setw(13) << format_number(row.p_bot(), 5) << std::setw(8)
+          << format_number(row.p_top(), 5) << std::setw(13) << format_number(row.p_bot(), 5) << std::setw(13)
+          << (row.has_stress() ? format_number(row.stress().yy(), 5) : "-") << std::setw(8)
           << format_number(row.contact_number(), 4) << std::setw(12) << format_number(row.stored_energy(), 4)
           << std::setw(12) << format_number(row.dissipated_energy(), 4) << std::setw(8) << row.ruptures().normal()
           << std::setw(4) << (row.equilibrated() ? "y" : "n") << "\n";

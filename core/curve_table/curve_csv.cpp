@@ -22,7 +22,7 @@ std::string curve_csv_header() {
          "ruptures_rolling [count],bonds_created [count],equilibrated [0/1],steps [count],sim_time [t0],"
          "wall_seconds [s],drag_energy [F0 a],wall_work [F0 a],kinetic_energy [F0 a],"
          "bond_creation_energy [F0 a],absorbed_by_walls [F0 a],snapshot,spans [0/1],residual_force [F0],"
-         "mean_bond_force [F0],relax_iterations [count]";
+         "mean_bond_force [F0],relax_iterations [count],sigma_xx [F0/a^2],sigma_yy [F0/a^2],sigma_xy [F0/a^2]";
 }
 
 std::string curve_csv_row(const gel::v1::CurveRow& r) {
@@ -36,6 +36,11 @@ std::string curve_csv_row(const gel::v1::CurveRow& r) {
       << exact(r.kinetic_energy()) << ',' << exact(r.bond_creation_energy()) << ','
       << exact(r.absorbed_by_walls()) << ',' << r.snapshot() << ',' << (r.spans() ? 1 : 0) << ','
       << exact(r.residual_force()) << ',' << exact(r.mean_bond_force()) << ',' << r.relax_iterations();
+  // Rows recorded before the stress was leave its cells empty (read as NaN), not 0.
+  if (r.has_stress())
+    out << ',' << exact(r.stress().xx()) << ',' << exact(r.stress().yy()) << ',' << exact(r.stress().xy());
+  else
+    out << ",,,";
   return out.str();
 }
 
@@ -47,14 +52,30 @@ std::string curve_to_csv(const gel::v1::Curve& curve) {
 
 std::string profiles_to_csv(const gel::v1::Curve& curve) {
   std::ostringstream out;
-  int slices = 0;
-  for (const gel::v1::CurveRow& r : curve.rows()) slices = std::max(slices, r.phi_profile_size());
+  int slices = 0, stress_slices = 0;
+  for (const gel::v1::CurveRow& r : curve.rows()) {
+    slices = std::max(slices, r.phi_profile_size());
+    stress_slices = std::max(stress_slices, r.stress().yy_profile_size());
+  }
+  static constexpr const char* kComponents[] = {"xx", "yy", "xy"};
   out << "k,phi [1]";
   for (int s = 0; s < slices; ++s) out << ",slice_" << s << " [1]";
+  for (const char* component : kComponents)
+    for (int s = 0; s < stress_slices; ++s) out << ",sigma_" << component << '_' << s << " [F0/a^2]";
   out << '\n';
+  // A row with fewer slices than the widest leaves the rest of its cells empty.
+  auto cells = [&out](const auto& values, int width) {
+    for (int s = 0; s < width; ++s) {
+      out << ',';
+      if (s < values.size()) out << exact(values.Get(s));
+    }
+  };
   for (const gel::v1::CurveRow& r : curve.rows()) {
     out << r.k() << ',' << exact(r.phi());
-    for (const double phi : r.phi_profile()) out << ',' << exact(phi);
+    cells(r.phi_profile(), slices);
+    cells(r.stress().xx_profile(), stress_slices);
+    cells(r.stress().yy_profile(), stress_slices);
+    cells(r.stress().xy_profile(), stress_slices);
     out << '\n';
   }
   return out.str();

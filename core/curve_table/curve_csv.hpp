@@ -16,7 +16,9 @@ std::string curve_csv_header();
 std::string curve_csv_row(const gel::v1::CurveRow& row);
 // Header and one line per row.
 std::string curve_to_csv(const gel::v1::Curve& curve);
-// profiles.csv: "k,phi [1],slice_0 [1],..." one row per equilibrium, slices bottom to top.
+// profiles.csv: "k,phi [1],slice_0 [1],...,sigma_xx_0 [F0/a^2],...,sigma_yy_0 [F0/a^2],...,
+// sigma_xy_0 [F0/a^2],..." one row per equilibrium, slices bottom to top: phi, then each stress
+// component per slice (gel/virial_stress.hpp).
 std::string profiles_to_csv(const gel::v1::Curve& curve);
 
 }  // namespace gel

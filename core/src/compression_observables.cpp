@@ -9,6 +9,7 @@
 #include "engine/bonded_group.hpp"
 #include "gel/errors.hpp"
 #include "gel/units.hpp"
+#include "gel/virial_stress.hpp"
 
 namespace gel {
 namespace {
@@ -45,6 +46,20 @@ std::vector<double> phi_profile(const System& system, int slices) {
   std::vector<double> phi(area.size());
   for (std::size_t s = 0; s < area.size(); ++s) phi[s] = area[s] / (system.lx() * width);
   return phi;
+}
+
+gel::v1::Stress stress_record(const System& system, int slices) {
+  const VirialStress stress = virial_stress(system, slices);
+  gel::v1::Stress record;
+  record.set_xx(stress.total.xx);
+  record.set_yy(stress.total.yy);
+  record.set_xy(stress.total.shear());
+  for (const StressTensor& slice : stress.slices) {
+    record.add_xx_profile(slice.xx);
+    record.add_yy_profile(slice.yy);
+    record.add_xy_profile(slice.shear());
+  }
+  return record;
 }
 
 void require_finite_state(const char* what, double value) {

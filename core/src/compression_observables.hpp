@@ -9,6 +9,8 @@ namespace gel {
 
 // Packing fraction in `slices` equal slices between the walls, bottom to top.
 std::vector<double> phi_profile(const System& system, int slices);
+// The virial stress (gel/virial_stress.hpp) as a curve row records it, over the same slices.
+gel::v1::Stress stress_record(const System& system, int slices);
 // A StabilityError naming `what` when value is not finite.
 void require_finite_state(const char* what, double value);
 // Particles connected through bonds to the top wall (the wall particles included).

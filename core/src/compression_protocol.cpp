@@ -330,6 +330,7 @@ class CompressionRun {
     row.set_sim_time(system_.time());
     row.set_wall_seconds(wall_seconds());
     for (const double phi : phi_profile(system_, settings_.profile_slices)) row.add_phi_profile(phi);
+    *row.mutable_stress() = stress_record(system_, settings_.profile_slices);
     row.set_drag_energy(system_.energy().drag);
     row.set_wall_work(system_.energy().wall_work);
     row.set_kinetic_energy(system_.kinetic_energy());
@@ -341,7 +342,8 @@ class CompressionRun {
       row.set_mean_bond_force(state_.relax.force_scale);
       row.set_relax_iterations(state_.relax.iterations);
     }
-    for (const double value : {row.p(), row.stored_energy(), row.dissipated_energy(), row.kinetic_energy(), row.phi()})
+    for (const double value : {row.p(), row.stored_energy(), row.dissipated_energy(), row.kinetic_energy(), row.phi(),
+                               row.stress().xx(), row.stress().yy(), row.stress().xy()})
       require_finite_state("a recorded observable", value);
     return row;
   }

@@ -32,6 +32,20 @@ T optional_field(const nlohmann::json& row, const char* name, T fallback) {
   return row.contains(name) && !row.at(name).is_null() ? field<T>(row, name) : fallback;
 }
 
+// A component of a row's "stress" object, named "rows.stress.<name>" when wrong.
+template <class T>
+T stress_field(const nlohmann::json& stress, const char* name, std::optional<T> fallback = std::nullopt) {
+  if (!stress.contains(name) || stress.at(name).is_null()) {
+    if (fallback) return *fallback;
+    throw InvalidArgument(std::string("rows.stress.") + name, "missing");
+  }
+  try {
+    return stress.at(name).get<T>();
+  } catch (const nlohmann::json::exception& error) {
+    throw InvalidArgument(std::string("rows.stress.") + name, error.what());
+  }
+}
+
 }  // namespace
 
 nlohmann::json curve_row_to_json(const gel::v1::CurveRow& row) {
@@ -64,6 +78,12 @@ nlohmann::json curve_row_to_json(const gel::v1::CurveRow& row) {
   j["residual_force"] = row.residual_force();
   j["mean_bond_force"] = row.mean_bond_force();
   j["relax_iterations"] = row.relax_iterations();
+  if (row.has_stress()) {
+    const gel::v1::Stress& s = row.stress();
+    auto list = [](const auto& values) { return std::vector<double>(values.begin(), values.end()); };
+    j["stress"] = {{"xx", s.xx()}, {"yy", s.yy()}, {"xy", s.xy()}, {"xx_profile", list(s.xx_profile())},
+                   {"yy_profile", list(s.yy_profile())}, {"xy_profile", list(s.xy_profile())}};
+  }
   return j;
 }
 
@@ -101,6 +121,18 @@ gel::v1::CurveRow curve_row_from_json(const nlohmann::json& j) {
   row.set_residual_force(optional_field<double>(j, "residual_force", 0.0));
   row.set_mean_bond_force(optional_field<double>(j, "mean_bond_force", 0.0));
   row.set_relax_iterations(optional_field<std::int64_t>(j, "relax_iterations", 0));
+  // Rows recorded before the stress was have none (not a zero stress).
+  if (j.contains("stress") && !j.at("stress").is_null()) {
+    const nlohmann::json stress = j.at("stress");
+    if (!stress.is_object()) throw InvalidArgument("rows.stress", "must be an object with xx, yy, xy");
+    gel::v1::Stress* s = row.mutable_stress();
+    s->set_xx(stress_field<double>(stress, "xx"));
+    s->set_yy(stress_field<double>(stress, "yy"));
+    s->set_xy(stress_field<double>(stress, "xy"));
+    for (const double v : stress_field<std::vector<double>>(stress, "xx_profile", {})) s->add_xx_profile(v);
+    for (const double v : stress_field<std::vector<double>>(stress, "yy_profile", {})) s->add_yy_profile(v);
+    for (const double v : stress_field<std::vector<double>>(stress, "xy_profile", {})) s->add_xy_profile(v);
+  }
   return row;
 }
 

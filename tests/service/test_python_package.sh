@@ -189,9 +189,19 @@ for index, row_json in enumerate(gelctl_json["rows"]):
 assert math.isclose(ensemble["P [F0/a^2]"][3], curve[curve["k"] == 3]["P [F0/a^2]"].mean(), rel_tol=1e-12)
 
 arrays = client.curve_arrays(small)
-assert set(arrays) == set(gel.CURVE_COLUMNS) | {"phi_profile [1]"}, set(arrays)
+assert set(arrays) == set(gel.CURVE_COLUMNS) | set(gel.PROFILE_COLUMNS), set(arrays)
+assert "sigma_yy_profile [F0/a^2]" in gel.PROFILE_COLUMNS, gel.PROFILE_COLUMNS
 assert all(isinstance(a, numpy.ndarray) and len(a) == 8 for a in arrays.values())
-assert arrays["phi_profile [1]"].shape == (8, 20), arrays["phi_profile [1]"].shape
+for name in gel.PROFILE_COLUMNS:
+    assert arrays[name].shape == (8, 20), (name, arrays[name].shape)
+# The virial stress beside P: tension positive, so sigma_yy = -P at force balance. These "fast"
+# rows are at rest within the equilibrium test's A = 1e-2 (|P_top - P_bot| < A P; measured:
+# |sigma_yy + P| <= 2e-3 P with gelsim on quick, seed 1).
+loaded = (numpy.abs(arrays["P [F0/a^2]"]) > 1e-4) & (arrays["equilibrated [0/1]"] == 1)
+assert loaded.any(), arrays["P [F0/a^2]"]
+sigma_yy, pressure = arrays["sigma_yy [F0/a^2]"][loaded], arrays["P [F0/a^2]"][loaded]
+assert (numpy.abs(sigma_yy + pressure) <= 1e-2 * pressure).all(), (sigma_yy, pressure)
+assert (numpy.abs(arrays["sigma_yy_profile [F0/a^2]"][loaded].mean(axis=1) - sigma_yy) <= 1e-9 * pressure).all()
 assert (arrays["P [F0/a^2]"] == curve["P [F0/a^2]"].to_numpy()).all()
 print(f"ok: curve {small}: 8 rows, numeric dtypes, curve.csv's header and values, gelctl's numbers")
 

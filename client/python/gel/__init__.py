@@ -59,7 +59,8 @@ __path__ = _stub_search_path(__path__)
 from .errors import GelError, InvalidRequestError, JobNotFoundError  # noqa: E402
 from .client import Client, SubmittedJob, connect  # noqa: E402
 from .configuration import read_configuration  # noqa: E402
-from .curves import CURVE_COLUMNS, JOB_CURVE_COLUMNS  # noqa: E402
+from .curves import CURVE_COLUMNS, JOB_CURVE_COLUMNS, PROFILE_COLUMNS  # noqa: E402
 
-__all__ = ["connect", "Client", "SubmittedJob", "read_configuration", "CURVE_COLUMNS", "JOB_CURVE_COLUMNS", "GelError",
+__all__ = ["connect", "Client", "SubmittedJob", "read_configuration", "CURVE_COLUMNS", "JOB_CURVE_COLUMNS", "PROFILE_COLUMNS",
+           "GelError",
            "JobNotFoundError", "InvalidRequestError"]

@@ -336,8 +336,9 @@ class Client:
         return curves.curve_frame(self._curve(job_id))
 
     def curve_arrays(self, job_id):
-        """curve()'s columns as {name: numpy array}, plus "phi_profile [1]": a (rows, slices)
-        array of phi per slice along y, bottom to top."""
+        """curve()'s columns as {name: numpy array}, plus gel.PROFILE_COLUMNS: "phi_profile [1]"
+        and "sigma_xx_profile [F0/a^2]", "sigma_yy_profile [F0/a^2]", "sigma_xy_profile [F0/a^2]",
+        (rows, slices) arrays per slice along y, bottom to top."""
         return curves.curve_arrays(self._curve(job_id))
 
     def ensemble_curve(self, job_id):

@@ -36,6 +36,11 @@ _CURVE_CSV_COLUMNS = (
     ("residual_force [F0]", numpy.float64, lambda r: r.residual_force),
     ("mean_bond_force [F0]", numpy.float64, lambda r: r.mean_bond_force),
     ("relax_iterations [count]", numpy.int64, lambda r: r.relax_iterations),
+    # The virial stress, tension positive (sigma_yy = -P at force balance); NaN in rows recorded
+    # before it was (they have no stress field), as curve.csv leaves those cells empty.
+    ("sigma_xx [F0/a^2]", numpy.float64, lambda r: r.stress.xx if r.HasField("stress") else numpy.nan),
+    ("sigma_yy [F0/a^2]", numpy.float64, lambda r: r.stress.yy if r.HasField("stress") else numpy.nan),
+    ("sigma_xy [F0/a^2]", numpy.float64, lambda r: r.stress.xy if r.HasField("stress") else numpy.nan),
 )
 
 # An ensemble's members share one table; these say whose row it is.
@@ -45,6 +50,16 @@ CURVE_COLUMNS = MEMBER_COLUMNS + tuple(name for name, _, _ in _CURVE_CSV_COLUMNS
 """Columns of Client.curve(): member (0-based index in the job's seeds), seed, then curve.csv's."""
 
 PROFILE_COLUMN = "phi_profile [1]"
+
+# The per-slice profiles of curve_arrays(): (name, values of a gel.v1.CurveRow), the slices of
+# profiles.csv, bottom to top.
+_PROFILES = (
+    (PROFILE_COLUMN, lambda r: r.phi_profile),
+    ("sigma_xx_profile [F0/a^2]", lambda r: r.stress.xx_profile),
+    ("sigma_yy_profile [F0/a^2]", lambda r: r.stress.yy_profile),
+    ("sigma_xy_profile [F0/a^2]", lambda r: r.stress.xy_profile),
+)
+PROFILE_COLUMNS = tuple(name for name, _ in _PROFILES)
 
 # GetCurve's per-phi_k statistics over an ensemble's members: (name, unit, EnsembleRow field).
 _ENSEMBLE_STATISTICS = (
@@ -56,8 +71,8 @@ _ENSEMBLE_STATISTICS = (
 
 def curve_arrays(curve_response):
     """GetCurveResponse -> {column: numpy array}, one element per row of every member in member
-    order; CURVE_COLUMNS plus PROFILE_COLUMN, a (rows, slices) array of phi per slice along y,
-    bottom to top (NaN where a row has fewer slices)."""
+    order; CURVE_COLUMNS plus PROFILE_COLUMNS, (rows, slices) arrays of phi and of the stress
+    components per slice along y, bottom to top (NaN where a row has fewer slices)."""
     member_rows = [(member.member, member.seed, row)
                    for member in curve_response.members for row in member.curve.rows]
     arrays = {
@@ -66,11 +81,13 @@ def curve_arrays(curve_response):
     }
     for name, dtype, value_of in _CURVE_CSV_COLUMNS:
         arrays[name] = numpy.array([value_of(row) for _, _, row in member_rows], dtype=dtype)
-    slices = max((len(row.phi_profile) for _, _, row in member_rows), default=0)
-    profiles = numpy.full((len(member_rows), slices), numpy.nan)
-    for index, (_, _, row) in enumerate(member_rows):
-        profiles[index, :len(row.phi_profile)] = row.phi_profile
-    arrays[PROFILE_COLUMN] = profiles
+    for name, values_of in _PROFILES:
+        slices = max((len(values_of(row)) for _, _, row in member_rows), default=0)
+        profiles = numpy.full((len(member_rows), slices), numpy.nan)
+        for index, (_, _, row) in enumerate(member_rows):
+            values = values_of(row)
+            profiles[index, :len(values)] = values
+        arrays[name] = profiles
     return arrays
 
 
@@ -79,7 +96,8 @@ def curve_frame(curve_response):
     import pandas  # only here: importing pandas costs a second that the rest of the package does not need
 
     arrays = curve_arrays(curve_response)
-    del arrays[PROFILE_COLUMN]
+    for name in PROFILE_COLUMNS:
+        del arrays[name]
     return pandas.DataFrame(arrays, columns=list(CURVE_COLUMNS))
 
 

@@ -74,7 +74,8 @@ def progress_to_dict(progress):
 def curve_row_to_dict(row):
     """One equilibrium row with curve.json's keys: phi [1], P, P_top, P_bot [F0/a^2], energies [F0 a]
     (cumulative), ruptures and bonds_created (cumulative counts), steps, sim_time [t0],
-    wall_seconds [s], phi_profile (phi per slice, bottom to top), ..."""
+    wall_seconds [s], phi_profile (phi per slice, bottom to top), ..., and "stress" (the virial
+    stress [F0/a^2], tension positive: xx, yy, xy and their *_profile per slice) where the row has it."""
     return {"k": row.k, "phi": row.phi, "target_phi": row.target_phi, "P": row.p, "P_top": row.p_top,
             "P_bot": row.p_bot, "contact_number": row.contact_number, "stored_energy": row.stored_energy,
             "dissipated_energy": row.dissipated_energy,
@@ -86,7 +87,10 @@ def curve_row_to_dict(row):
             "bond_creation_energy": row.bond_creation_energy, "absorbed_by_walls": row.absorbed_by_walls,
             "phi_profile": list(row.phi_profile), "snapshot": row.snapshot, "spans": row.spans,
             "residual_force": row.residual_force, "mean_bond_force": row.mean_bond_force,
-            "relax_iterations": row.relax_iterations}
+            "relax_iterations": row.relax_iterations,
+            **({"stress": {"xx": row.stress.xx, "yy": row.stress.yy, "xy": row.stress.xy,
+                           "xx_profile": list(row.stress.xx_profile), "yy_profile": list(row.stress.yy_profile),
+                           "xy_profile": list(row.stress.xy_profile)}} if row.HasField("stress") else {})}
 
 
 def job_to_dict(job):

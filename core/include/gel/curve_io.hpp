@@ -7,7 +7,10 @@
 //                        "ruptures": {"normal", "sliding", "rolling"}, "bonds_created",
 //                        "equilibrated", "steps", "sim_time", "wall_seconds", "drag_energy",
 //                        "wall_work", "kinetic_energy", "bond_creation_energy",
-//                        "absorbed_by_walls", "phi_profile": [...], "snapshot"}]}
+//                        "absorbed_by_walls", "phi_profile": [...], "snapshot", "spans",
+//                        "residual_force", "mean_bond_force", "relax_iterations",
+//                        "stress": {"xx", "yy", "xy", "xx_profile": [...], "yy_profile": [...],
+//                                   "xy_profile": [...]} (absent in rows recorded before it)}]}
 // curve.csv: one row per equilibrium, the header names every column with its unit
 // ("name [unit]"; the profile is in profiles.csv). read_curve reads curve.json.
 #include <optional>

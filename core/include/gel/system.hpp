@@ -159,6 +159,10 @@ class System {
 
   // Energies.
   double stored_energy() const;   // elastic energy of all bonds
+  // Bond b's geometry now (line of centres, gap, lab-frame contact points): with
+  // evaluate_bond and bond_loads (bond_evaluator.hpp) the force it exerts, for observables
+  // such as the virial stress (gel/virial_stress.hpp).
+  BondGeometry bond_geometry(std::size_t b) const { return geometry(bonds_[b]); }
   double kinetic_energy() const;  // of the free (non-wall) particles
   double max_speed() const;       // largest |v| and a|omega| of free particles
   double mean_contact_number() const;
