@@ -79,7 +79,17 @@ struct CompressArgs {
   // GSD trajectory: a frame every N engine steps, to OUT/trajectory.gsd unless named.
   std::int64_t trajectory_every = 0;
   std::string trajectory;
+  // Thermo log: a CSV line of the state every N engine steps, to OUT/thermo.csv.
+  std::int64_t thermo_every = 0;
 };
+
+// The thermo log of a run whose outputs go to `dir` (none without --thermo-every: the scene of a
+// resumed run may still ask for one); throws when there is nowhere to put it.
+std::string thermo_path(const CompressArgs& args, const std::string& dir) {
+  if (args.thermo_every <= 0) return {};
+  if (dir.empty()) throw gel::InvalidArgument("--thermo-every", "needs --out DIR: the log is written to DIR/thermo.csv");
+  return gel::default_thermo_path(dir);
+}
 
 // The trajectory file of a run whose outputs go to `dir`; throws when there is nowhere to put it.
 std::string trajectory_path(const CompressArgs& args, const std::string& dir) {
@@ -129,6 +139,8 @@ gel::v1::Scene build_scene(const CompressArgs& args) {
   if (scene.preset().empty() && args.scene_file.empty() && args.config_file.empty()) scene.set_preset("quick");
   if (!args.bond.empty()) scene.mutable_bond()->set_preset(args.bond);
   if (args.seed) scene.mutable_generator()->set_seed(*args.seed);
+  // In the scene, so that the run's record says so and --resume goes on logging without the flag.
+  if (args.thermo_every > 0) scene.mutable_output()->set_thermo_every(args.thermo_every);
   gel::v1::Compression* c = scene.mutable_compression();
   if (!args.fidelity.empty()) c->set_fidelity(args.fidelity);
   if (args.phi_max != 0) c->set_phi_max(args.phi_max);
@@ -302,6 +314,8 @@ int run_ensemble(const CompressArgs& args) {
       options.threads = args.threads;
       options.trajectory_every = args.trajectory_every;
       options.trajectory_path = trajectory_path(args, options.out_dir);
+      options.thermo_every = args.thermo_every;
+      options.thermo_path = thermo_path(args, options.out_dir);
       options.on_progress = [&, seed, prefix](const gel::v1::Progress& p) {
         progress_file.progress(p, seed);
         print(prefix + progress_text(p));
@@ -414,6 +428,8 @@ int run_compress(const CompressArgs& args) {
   options.threads = args.threads;
   options.trajectory_every = args.trajectory_every;
   options.trajectory_path = trajectory_path(args, options.out_dir);
+  options.thermo_every = args.thermo_every;
+  options.thermo_path = thermo_path(args, options.out_dir);
   options.on_progress = [&](const gel::v1::Progress& p) {
     progress_file.progress(p);
     if (terminal)
@@ -513,6 +529,10 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
                  "write a GSD trajectory frame every N engine steps (OVITO, gsd.hoomd; README \"Data out\")")
       ->check(gel::cli::positive(args->trajectory_every));
   sub.add_option("--trajectory", args->trajectory, "the trajectory file (default OUT/trajectory.gsd; not with --seeds)");
+  sub.add_option("--thermo-every", args->thermo_every,
+                 "append a CSV line of the state (step, time, phi, P_top, P_bot, energies, ruptures) to OUT/thermo.csv "
+                 "every N engine steps, flushed at once (docs/compression.md \"Thermo log\")")
+      ->check(gel::cli::positive(args->thermo_every));
   sub.add_option("--phi-max", args->phi_max, "last target packing fraction");
   sub.add_option("--steps", args->steps, "k', the number of targets (at least 1; leave it out for the preset's)")
       ->check(CLI::Validator(

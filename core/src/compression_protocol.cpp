@@ -29,6 +29,7 @@
 #include "gel/generator.hpp"
 #include "gel/system.hpp"
 #include "gel/units.hpp"
+#include "thermo_log.hpp"
 
 namespace gel {
 namespace {
@@ -53,13 +54,18 @@ constexpr std::int64_t kRelaxChunk = 512;
 constexpr double kAdaptiveSpeedUp = 1.1;
 constexpr double kAdaptiveSlowDown = 0.5;
 
-// The scene's own output requests (output.trajectory_every, into DIR/trajectory.gsd) where the
-// caller's options leave them open: a job of geld asks for its trajectory this way.
+// The scene's own output requests (output.trajectory_every into DIR/trajectory.gsd,
+// output.thermo_every into DIR/thermo.csv) where the caller's options leave them open: a job of
+// geld asks for its trajectory and thermo log this way.
 RunOptions with_scene_outputs(RunOptions options, const gel::v1::Scene& scene) {
   if (options.trajectory_every <= 0 && scene.output().trajectory_every() > 0 && !options.out_dir.empty()) {
     options.trajectory_every = scene.output().trajectory_every();
     if (options.trajectory_path.empty())
       options.trajectory_path = default_trajectory_path(options.out_dir);
+  }
+  if (options.thermo_every <= 0 && scene.output().thermo_every() > 0 && !options.out_dir.empty()) {
+    options.thermo_every = scene.output().thermo_every();
+    if (options.thermo_path.empty()) options.thermo_path = default_thermo_path(options.out_dir);
   }
   return options;
 }
@@ -84,9 +90,13 @@ class CompressionRun {
     system_.set_threads(options.threads > 0 ? options.threads : scene_threads > 0 ? scene_threads : 1);
   }
 
-  // Opens the trajectory: a fresh run starts the file, a resumed one keeps its frames up to the
-  // checkpoint's step and writes the next frame where the uninterrupted run would have.
-  void open_trajectory(bool resumed) {
+  // Opens the trajectory and the thermo log: a fresh run starts each file, a resumed one keeps
+  // their frames and lines up to the checkpoint's step and writes the next one where the
+  // uninterrupted run would have.
+  void open_outputs(bool resumed) {
+    if (options_.thermo_every > 0 && !options_.thermo_path.empty())
+      thermo_ = std::make_unique<ThermoLog>(options_.thermo_path, options_.thermo_every,
+                                            resumed ? system_.step_count() : -1);
     if (options_.trajectory_every <= 0 || options_.trajectory_path.empty()) return;
     const std::int64_t step = system_.step_count();
     if (!resumed) {
@@ -102,8 +112,9 @@ class CompressionRun {
   // A fresh run: records row 0 and writes its outputs.
   void start() {
     state_.next_exam_step = 0;
-    open_trajectory(false);
+    open_outputs(false);
     write_frame_if_due();
+    write_thermo_if_due();
     store_row(measure_row(true, state_.phi0));
   }
 
@@ -124,6 +135,7 @@ class CompressionRun {
         advance_waiting();
       between_chunks();
     }
+    if (thermo_) thermo_->write(system_, state_k(), "done");  // the final state, unless just written
     save_checkpoint();
     if (options_.on_progress) options_.on_progress(progress("done"));
     result.finished = true;
@@ -373,9 +385,12 @@ class CompressionRun {
     last_checkpoint_ = Clock::now();
   }
 
+  // The target being worked towards (the last one once done).
+  int state_k() const { return std::min(state_.k, settings_.steps); }
+
   gel::v1::Progress progress(const char* phase) const {
     gel::v1::Progress p;
-    const int k = std::min(state_.k, settings_.steps);
+    const int k = state_k();
     p.set_k(k);
     p.set_k_total(settings_.steps);
     p.set_phi(system_.packing_fraction());
@@ -429,8 +444,13 @@ class CompressionRun {
     next_frame_step_ = (frame.step / options_.trajectory_every + 1) * options_.trajectory_every;
   }
 
+  void write_thermo_if_due() {
+    if (thermo_ && thermo_->due(system_.step_count())) thermo_->write(system_, state_k(), phase_name());
+  }
+
   void between_chunks() {
     write_frame_if_due();
+    write_thermo_if_due();
     const bool want_clock = static_cast<bool>(options_.on_progress) || !options_.out_dir.empty();
     if (!want_clock) return;
     const Clock::time_point now = Clock::now();
@@ -454,6 +474,7 @@ class CompressionRun {
   Clock::time_point session_start_, last_progress_, last_checkpoint_;
   std::unique_ptr<exporting::FrameWriter> trajectory_;
   std::int64_t next_frame_step_ = 0;
+  std::unique_ptr<ThermoLog> thermo_;
 };
 
 }  // namespace
@@ -545,7 +566,7 @@ CompressionResult resume_compression(const RunOptions& options) {
       continue;
     }
     CompressionRun run(std::move(*loaded.system), std::move(loaded.curve), loaded.state, options);
-    run.open_trajectory(true);
+    run.open_outputs(true);
     CompressionResult result = run.run();
     result.resumed_from_previous_checkpoint = path == previous_checkpoint_path(options.out_dir);
     result.checkpoint_problem = problems;
@@ -556,6 +577,10 @@ CompressionResult resume_compression(const RunOptions& options) {
 
 std::string default_trajectory_path(const std::string& out_dir) {
   return (std::filesystem::path(out_dir) / "trajectory.gsd").string();
+}
+
+std::string default_thermo_path(const std::string& out_dir) {
+  return (std::filesystem::path(out_dir) / "thermo.csv").string();
 }
 
 }  // namespace gel

@@ -214,6 +214,9 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   if (trajectory_every < 0 || (trajectory_every > 0 && trajectory_every < 100))
     throw InvalidArgument("output.trajectory_every", "must be 0 (no trajectory) or at least 100 steps, got " +
                                                          std::to_string(trajectory_every));
+  if (resolved.output().thermo_every() < 0)
+    throw InvalidArgument("output.thermo_every", "must be 0 (no thermo log) or a positive number of steps, got " +
+                                                     std::to_string(resolved.output().thermo_every()));
   if (resolved.generator().preset().empty() && resolved.generator().n_floc() == 0) {
     // No generator: the caller must pass an initial configuration (checked when running).
   } else {

@@ -36,7 +36,7 @@ constexpr double kBytesPerBond =
     + 2 * (2 * 4 + 4 * 8) // snapshot
     + 2 * (2 * 4 + 6 * 8); // checkpoint
 constexpr double kBytesPerPair = 2 * 24 + 2 * 24;  // candidate (capacity up to 2x), checkpoint copies
-constexpr double kBytesPerRowSlice = 3 * 8;        // phi profile: curve row, its message and JSON
+constexpr double kBytesPerRowSlice = 4 * 3 * 8;    // phi and 3 stress profiles: curve row, its message and JSON
 constexpr double kBytesPerRow = 1024;              // the rest of a curve row, with copies
 constexpr double kGeneratorBytesPerArea = 3.1;     // cell grid and walk [bytes per a^2]: 690 MB at 2.25e8 a^2
 
@@ -49,6 +49,8 @@ constexpr double kCheckpointBytesPerPair = 2 * 5 + 2 * 9;
 constexpr double kFrameBytesPerParticle = 4 + 3 * 4 + 4 * 4 + 3 * 4 + 4 * 4 + 3 * 4 + 4  // hoomd chunks, float
                                           + 8 + 3 * 8 + 3 * 8 + 2 * 8 + 3 * 8,           // theta, forces, torques, exact state
                  kFrameBytesPerBond = 4 + 2 * 4 + 4 * 8 + 11 * 8;  // type, group, body-frame contacts, bond state
+// A thermo log line (14 numbers in shortest round-trip text), at most one per chunk of 128 steps.
+constexpr double kThermoBytesPerLine = 256, kThermoShortestInterval = 128;
 
 }  // namespace
 
@@ -89,7 +91,13 @@ ResourceEstimate estimate_resources(const gel::v1::Scene& resolved, bool write_s
   const double frames = every > 0 ? static_cast<double>(e.steps) / static_cast<double>(every) + rows + 1 : 0.0;
   const double trajectory = frames * (n * kFrameBytesPerParticle + bonds * kFrameBytesPerBond);
   e.disk_driver = trajectory > snapshots + checkpoints ? "output.trajectory_every" : "generator";
-  e.disk_bytes = static_cast<std::int64_t>(std::min(snapshots + checkpoints + trajectory + rows * kBytesPerRow, 9e18));
+  const std::int64_t thermo_every = resolved.output().thermo_every();
+  const double thermo =
+      thermo_every > 0
+          ? (static_cast<double>(e.steps) / std::max(static_cast<double>(thermo_every), kThermoShortestInterval) + rows + 1) *
+                kThermoBytesPerLine
+          : 0.0;
+  e.disk_bytes = static_cast<std::int64_t>(std::min(snapshots + checkpoints + trajectory + thermo + rows * kBytesPerRow, 9e18));
   return e;
 }
 

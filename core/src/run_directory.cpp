@@ -20,8 +20,8 @@ namespace fs = std::filesystem;
 // What a run writes into its directory (gel/compression.hpp, gel/curve_io.hpp), what gelsim
 // plot adds to it by default, and an ensemble's manifest; each file also as the ".tmp" an
 // interrupted atomic write leaves.
-constexpr std::array<std::string_view, 7> kRunFiles = {"curve.json",    "curve.csv",           "profiles.csv", "checkpoint.bin",
-                                                       "checkpoint.prev.bin", "trajectory.gsd", "ensemble.json"};
+constexpr std::array<std::string_view, 8> kRunFiles = {"curve.json",          "curve.csv",      "profiles.csv",  "checkpoint.bin",
+                                                       "checkpoint.prev.bin", "trajectory.gsd", "ensemble.json", "thermo.csv"};
 constexpr std::array<std::string_view, 2> kRunFolders = {"snapshots", "plots"};
 
 bool is_member_folder(const fs::directory_entry& entry) {

@@ -4,6 +4,7 @@
 // so that the file stays fast under the sanitizers too.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
@@ -340,6 +341,9 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
   // Trajectory frames every 5000 steps: the resumed file must hold the same frames.
   reference_options.trajectory_every = 5000;
   reference_options.trajectory_path = reference_dir + "/trajectory.gsd";
+  // And a thermo line every 1000 steps: the resumed log must hold the same lines, none twice.
+  reference_options.thermo_every = 1000;
+  reference_options.thermo_path = reference_dir + "/thermo.csv";
   const CompressionResult reference = run_compression(scene, reference_options);
   ASSERT_TRUE(reference.finished);
   const std::int64_t total_steps = reference.curve.rows(reference.curve.rows_size() - 1).steps();
@@ -355,6 +359,8 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
   };
   options.trajectory_every = reference_options.trajectory_every;
   options.trajectory_path = resumed_dir + "/trajectory.gsd";
+  options.thermo_every = reference_options.thermo_every;
+  options.thermo_path = resumed_dir + "/thermo.csv";
   CompressionResult part = run_compression(scene, options);
   ASSERT_TRUE(part.stopped);
   ASSERT_FALSE(part.finished);
@@ -380,6 +386,9 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
   const auto frames = static_cast<std::size_t>(total_steps / reference_options.trajectory_every + 1);
   EXPECT_GT(trajectory.size(), 34000 + frames * reference.curve.particles() * 3 * sizeof(float));
   EXPECT_TRUE(trajectory == read_file(resumed_dir + "/trajectory.gsd")) << "the resumed trajectory differs";
+  const std::string thermo = read_file(reference_dir + "/thermo.csv");
+  EXPECT_GE(std::count(thermo.begin(), thermo.end(), '\n'), 2 + total_steps / reference_options.thermo_every);
+  EXPECT_EQ(thermo, read_file(resumed_dir + "/thermo.csv")) << "the resumed thermo log differs";
   // The files on disk hold the same curve.
   const gel::v1::Curve on_disk = read_curve(resumed_dir);
   ASSERT_EQ(on_disk.rows_size(), reference.curve.rows_size());

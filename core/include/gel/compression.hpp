@@ -33,6 +33,8 @@ std::vector<double> compression_targets(double phi0, double w0, double phi_max, 
 // A run's GSD trajectory in its output directory, whoever asks for it (gelsim's
 // --trajectory-every or the scene's output.trajectory_every).
 std::string default_trajectory_path(const std::string& out_dir);
+// The same for the thermo log (gelsim's --thermo-every or the scene's output.thermo_every).
+std::string default_thermo_path(const std::string& out_dir);
 
 struct RunOptions {
   std::string out_dir;  // checkpoint, curve.csv/json, snapshots; empty = keep in memory only
@@ -49,6 +51,13 @@ struct RunOptions {
   // resumed run drops the file's frames past its checkpoint and goes on from there.
   std::string trajectory_path;
   std::int64_t trajectory_every = 0;
+  // A thermo log (docs/compression.md "Thermo log"): a CSV line of the state (step, time, phi,
+  // P_top, P_bot, energies, ruptures) at the start, at the first chunk boundary at or after every
+  // multiple of thermo_every engine steps, and at the end (0: none), each flushed at once. It
+  // reads the state and never changes it (bit-identical with or without). A resumed run drops
+  // the lines past its checkpoint and appends from there.
+  std::string thermo_path;
+  std::int64_t thermo_every = 0;
 };
 
 struct CompressionResult {
