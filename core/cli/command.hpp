@@ -5,7 +5,10 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+// <CLI/App.hpp>, not <CLI/CLI.hpp>: CLI11's help formatter and config-file reader (CLI/Formatter.hpp,
+// CLI/Config.hpp) are inline code that every file including them compiles again (most of a
+// sub-command's build time, docs/testing.md); main.cpp, which builds the App, includes them.
+#include <CLI/App.hpp>
 
 #include "gel/seed.hpp"
 

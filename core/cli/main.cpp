@@ -4,6 +4,8 @@
 #include <iostream>
 #include <map>
 
+#include <CLI/CLI.hpp>
+
 #include "command.hpp"
 #include "command_line.hpp"
 #include "gel/configuration.hpp"

@@ -6,7 +6,8 @@
 #include <string>
 #include <type_traits>
 
-#include <CLI/CLI.hpp>
+// <CLI/App.hpp>, not <CLI/CLI.hpp>: see core/cli/command.hpp.
+#include <CLI/App.hpp>
 
 namespace gel::cli {
 

@@ -10,7 +10,16 @@
 // therefore reproducible across the machines of a cluster, whatever their instruction sets.
 #include <cstddef>
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+// GEL_NO_SIMD_CLONES (the sanitizer build defines it, CMakeLists.txt) compiles these loops once,
+// for baseline x86-64. A process only ever runs the clone its CPU selects, so the sanitizer build
+// with clones compiled all three (a third of its compile time) and checked the widest alone; now
+// it checks the baseline, and the Release build, which keeps the clones, runs the widest the CPU
+// has (docs/testing.md "Instruction sets").
+//
+// A file that defines GEL_SIMD_CLONES itself before including the loops compiles them for the
+// one instruction set it names (tests/core/simd_clones_*.cpp: each clone checked bit for bit).
+#if defined(GEL_SIMD_CLONES)
+#elif defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(GEL_NO_SIMD_CLONES)
 #define GEL_SIMD_CLONES [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
 #else
 #define GEL_SIMD_CLONES
