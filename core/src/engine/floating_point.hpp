@@ -8,9 +8,10 @@
 // paper-bond1 --seed 1` its particle loop (fire_update) took 57 % of the time instead of the 17 %
 // it takes elsewhere. With the flush the same run reaches the first three rows in the same
 // number of steps (the same trajectory) with 11.5 s less CPU (64 s against 75 s to row 1, the two
-// binaries side by side, 2026-12-07); paper-bond2 seed 1 reaches row 2 with 128 s against 165 s. Values of 1e-308 F0 or a/t0 carry no physics (relaxation
-// stops at 1e-6 F0), so the engine runs with FTZ (results that would be subnormal are 0) and DAZ
-// (subnormal inputs count as 0).
+// binaries side by side, 2026-12-07); paper-bond2 seed 1 reaches row 2 with 128 s against
+// 165 s. Values of 1e-308 F0 or a/t0 carry no physics (relaxation stops at 1e-6 F0), so the
+// engine runs with FTZ (results that would be subnormal are 0) and DAZ (subnormal inputs count
+// as 0).
 //
 // Determinism: every public engine call that moves or evaluates the system sets the mode for
 // its duration (FlushSubnormals, restoring the caller's mode after), and WorkerPool copies the
