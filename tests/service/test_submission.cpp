@@ -241,6 +241,12 @@ TEST_F(Service, AnIdenticalSubmissionReturnsTheJobThatAlreadySucceeded) {
   EXPECT_FALSE(rerun.cached());
   EXPECT_NE(rerun.job_id(), first.job_id());
   EXPECT_EQ(sqlite_count("SELECT count(*) FROM jobs"), 4);
+  // Two jobs now hold the same result; the cache answers with the newest that succeeded. The
+  // rerun is waited for: while it runs the answer is the first job, after it the rerun (the
+  // test used to race it and failed when the worker was quick, 2026-12-07).
+  watch(rerun.job_id());
+  ASSERT_EQ(get(rerun.job_id()).state(), gel::v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(submit_plain(tiny_scene_json(), {3, 4}, false).job_id(), rerun.job_id());
   // What does not change a bit of the result does not miss the cache: the engine threads (geld
   // writes its --threads-per-member into the stored scene), and the scene's own seed when a
   // seed list replaces it. A run without a list is the list of its scene's seed.
@@ -249,8 +255,8 @@ TEST_F(Service, AnIdenticalSubmissionReturnsTheJobThatAlreadySucceeded) {
     scene.merge_patch(nlohmann::json::parse(extra));
     return scene.dump();
   };
-  EXPECT_EQ(submit_plain(with(R"({"integration": {"threads": 2}})"), {3, 4}, false).job_id(), first.job_id());
-  EXPECT_EQ(submit_plain(with(R"({"generator": {"seed": 99}})"), {3, 4}, false).job_id(), first.job_id());
+  EXPECT_EQ(submit_plain(with(R"({"integration": {"threads": 2}})"), {3, 4}, false).job_id(), rerun.job_id());
+  EXPECT_EQ(submit_plain(with(R"({"generator": {"seed": 99}})"), {3, 4}, false).job_id(), rerun.job_id());
   const auto single = submit_plain(with(R"({"generator": {"seed": 6}})"), {}, false);
   watch(single.job_id());
   ASSERT_EQ(get(single.job_id()).state(), gel::v1::JOB_STATE_SUCCEEDED);
