@@ -93,11 +93,18 @@ struct BondChunkForces {
   BondState state[kBondChunk];
 };
 
+// What a task of pass 1 tells the serial pass 2: the smallest delta of its common bonds, and
+// whether it flagged any (so that pass 2 reads only the tasks that did, not every bond's state).
+struct ChunkSummary {
+  double min_delta = std::numeric_limits<double>::infinity();
+  bool any_flagged = false;
+};
+
 struct BondScratch {
   BondArrays bonds;
   BondForceArrays forces;  // several threads: every bond's results
   BondChunkForces chunk;   // one thread
-  std::vector<double> chunk_min_delta;  // pass 1: smallest gap of a common bond, per chunk
+  std::vector<ChunkSummary> chunk_summaries;  // several threads: pass 1's summary per task
 };
 
 // n and the gap of a bond from the separation r_j - r_i (image shift included); the contact
@@ -161,12 +168,17 @@ GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begi
   }
 }
 
-// The smallest gap among the common bonds of [begin, begin + count) (exact ones are pass 2's).
-inline double common_min_delta(const BondForceArrays& forces, std::size_t begin, std::size_t count) {
-  double min_delta = std::numeric_limits<double>::infinity();
-  for (std::size_t k = begin; k < begin + count; ++k)
-    if (forces.state[k] == BondForceArrays::kCommon) min_delta = std::min(min_delta, forces.delta[k]);
-  return min_delta;
+// The smallest gap among the common bonds of [begin, begin + count) (exact ones are pass 2's),
+// and whether any bond there is flagged for pass 2.
+inline ChunkSummary summarise_chunk(const BondForceArrays& forces, std::size_t begin, std::size_t count) {
+  ChunkSummary summary;
+  for (std::size_t k = begin; k < begin + count; ++k) {
+    if (forces.state[k] == BondForceArrays::kCommon)
+      summary.min_delta = std::min(summary.min_delta, forces.delta[k]);
+    else
+      summary.any_flagged = true;
+  }
+  return summary;
 }
 
 // Pass 3 for particles [begin, end): force and torque of each from its bonds, in bond order.

