@@ -90,11 +90,15 @@ VARIANTS = {
     # The next candidate measured (not the preset): a longer walk step (6x, within the cap) up to
     # a higher stress (3e-2 F0/a^2: bond 1 to phi ~ 0.42).
     "quasistatic-walkdt6-below3e-2": {"fidelity": "quasistatic", "walk_dt_factor": 6, "walk_dt_stress": 3e-2},
+    # The loaded walk (from 1e-2 F0/a^2 on, at the scene's dt, about half of a paper-size bond-1
+    # run) with walls at 2x the preset's speed: walls2x over the whole run moved P_y at phi <= 0.34
+    # only, where this variant keeps the preset's walls.
+    "quasistatic-loaded-walls2x": {"fidelity": "quasistatic", "loaded_wall_factor": 2},
 }
 # Variant keys copied as they are into the scene's compression message.
 COMPRESSION_FIELDS = ("adaptive_wall_max_factor", "approach_shortcut", "adaptive_wall_drag_fraction", "m_exam",
                       "quasistatic_approach", "relax_max_iterations", "relax_dt_max_factor", "walk_dt_factor",
-                      "walk_dt_stress")
+                      "walk_dt_stress", "loaded_wall_factor")
 REFERENCE = "paper"
 DEFAULT_VARIANTS = ("quasistatic", "paper")
 REFERENCE_WALL_SPEED = {"bond1": 5e-4, "bond2": 1e-4}

@@ -181,7 +181,9 @@ class CompressionRun {
     if (gap <= 0.0) return begin_wait();
     system_.set_time_step(walk_time_step());
     const double dt = system_.params().dt;
-    const double v_wall = settings_.adaptive_wall_max_factor > 1.0 ? adapt_wall_speed() : settings_.v_wall;
+    const double v_wall = settings_.adaptive_wall_max_factor > 1.0
+                              ? adapt_wall_speed()
+                              : loaded_wall_speed(settings_, settings_.v_wall, system_.wall_stress().p);
     const double per_step = 2.0 * v_wall * dt;
     const double full_steps = std::floor(gap / per_step);
     if (full_steps >= 2.0) {

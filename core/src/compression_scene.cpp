@@ -86,6 +86,7 @@ constexpr std::int64_t kDefaultRelaxIterations = 1000000;
 constexpr double kDefaultRelaxDtMax = 3;             // FIRE dt_max / (dt x FIRE inertia gain)
 // The walk step: below this wall stress the walls' walk may take walk_dt_factor x dt.
 constexpr double kDefaultWalkDtStress = 1e-2;        // [F0/a^2]
+constexpr double kMaxLoadedWallFactor = 10;
 // The longest walk step, as a fraction of the shortest period of one bond: omega dt <= pi/2, a
 // margin of 1.27 below Verlet's limit 2 for the fastest mode of a free bonded pair (the
 // contact-stiffness guard stops a run whose compressed contacts stiffen past it).
@@ -314,6 +315,12 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   }
   if (c->walk_dt_stress() == 0.0) c->set_walk_dt_stress(kDefaultWalkDtStress);
   require_positive("compression.walk_dt_stress", c->walk_dt_stress());
+  require_finite("compression.loaded_wall_factor", c->loaded_wall_factor());
+  if (c->loaded_wall_factor() != 0.0) {
+    require_within("compression.loaded_wall_factor", c->loaded_wall_factor(), 1.0, kMaxLoadedWallFactor,
+                   "times v_wall (0 or 1 = off)");
+    require_wall_step_within_skin("compression.loaded_wall_factor", c->v_wall() * c->loaded_wall_factor());
+  }
   if (c->profile_slices() == 0) c->set_profile_slices(kDefaultProfileSlices);
   if (c->profile_slices() < 1 || c->profile_slices() > 100000)
     throw InvalidArgument("compression.profile_slices", "must be between 1 and 100000");
@@ -450,6 +457,7 @@ CompressionSettings compression_settings(const gel::v1::Compression& c) {
   s.relax_max_iterations = c.relax_max_iterations();
   s.walk_dt_factor = std::max(1.0, c.walk_dt_factor());
   s.walk_dt_stress = c.walk_dt_stress();
+  s.loaded_wall_factor = std::max(1.0, c.loaded_wall_factor());
   return s;
 }
 

@@ -77,9 +77,10 @@ ResourceEstimate estimate_resources(const gel::v1::Scene& resolved, bool write_s
   e.memory_bytes = static_cast<std::int64_t>(std::max(generator, state + neighbour_list + curve));
 
   // Steps: both walls walk from the extreme particles (height ~ L_y) to phi_max's height, at
-  // most walk_dt_factor x dt per step (the walk step, while the walls carry little).
+  // most walk_dt_factor x dt per step (the walk step, while the walls carry little) or at most
+  // loaded_wall_factor x v_wall (while they carry more): the larger of the two bounds the walk.
   const double phi0 = kPi * kRadius * kRadius * n / (g.lx() * g.ly());
-  const double longest_step = std::max(1.0, c.walk_dt_factor()) * params.dt;
+  const double longest_step = std::max({1.0, c.walk_dt_factor(), c.loaded_wall_factor()}) * params.dt;
   const double walk = g.ly() * std::max(0.0, 1.0 - phi0 / c.phi_max()) / (2.0 * c.v_wall() * longest_step);
   const double exams = c.quasistatic() ? 0.0 : static_cast<double>(c.steps()) * static_cast<double>(c.m_exam());
   e.steps = static_cast<std::int64_t>(std::min(walk + exams, 9e18));

@@ -146,5 +146,64 @@ TEST(WalkStep, BelowTheStressOnlyAndNeverPastHalfOfVerletsLimit) {
   EXPECT_EQ(asked, 0);
 }
 
+// Loaded walls (docs/quasistatic.md "Loaded walls"): at and above walk_dt_stress the walls may
+// move faster; below it, or with the factor off, at v_wall.
+TEST(LoadedWalls, FasterOnlyAtAndAboveTheStress) {
+  CompressionSettings settings;
+  settings.walk_dt_stress = 1e-2;
+  const double v = 3e-4;
+  EXPECT_EQ(loaded_wall_speed(settings, v, 5e-2), v);  // off by default
+  settings.loaded_wall_factor = 2;
+  EXPECT_EQ(loaded_wall_speed(settings, v, 5e-3), v);
+  EXPECT_EQ(loaded_wall_speed(settings, v, -5e-3), v);
+  EXPECT_EQ(loaded_wall_speed(settings, v, 1e-2), 2 * v);
+  EXPECT_EQ(loaded_wall_speed(settings, v, -2e-2), 2 * v);
+  EXPECT_EQ(loaded_wall_speed(settings, v, std::nan("")), v);  // the guard's business, not a reason to hurry
+}
+
+TEST(LoadedWalls, TheFactorIsCheckedAndNoPresetSetsIt) {
+  gel::v1::Scene preset;
+  preset.set_preset("paper-bond1");
+  EXPECT_EQ(resolve_compression_scene(preset).compression().loaded_wall_factor(), 0.0);
+  EXPECT_EQ(compression_settings(resolve_compression_scene(preset).compression()).loaded_wall_factor, 1.0);
+  auto with_factor = [](double factor) {
+    gel::v1::Scene scene = tiny_compression_scene("quasistatic");
+    scene.mutable_compression()->set_loaded_wall_factor(factor);
+    return scene;
+  };
+  EXPECT_EQ(compression_settings(resolve_compression_scene(with_factor(2)).compression()).loaded_wall_factor, 2.0);
+  expect_invalid_walk(with_factor(0.5), "compression.loaded_wall_factor");
+  expect_invalid_walk(with_factor(11), "compression.loaded_wall_factor");
+  expect_invalid_walk(with_factor(std::nan("")), "compression.loaded_wall_factor");
+}
+
+TEST(LoadedWalls, TheLoadedWalkTakesHalfTheStepsAtTwiceTheSpeed) {
+  // A stress threshold of zero makes every walk loaded once the walls touch the network; the
+  // walls then cover each target's distance in half the steps at the same dt.
+  auto scene = [](double factor) {
+    gel::v1::Scene s = tiny_walk_scene(1, 1e-12);
+    s.mutable_compression()->set_loaded_wall_factor(factor);
+    return s;
+  };
+  const CompressionResult plain = run_compression(scene(1), RunOptions{});
+  const CompressionResult fast = run_compression(scene(2), RunOptions{});
+  ASSERT_TRUE(plain.finished && fast.finished);
+  ASSERT_EQ(plain.curve.rows_size(), fast.curve.rows_size());
+  const int last = plain.curve.rows_size() - 1;
+  auto walk_steps = [last](const CompressionResult& run) {
+    // From row 2 on (the first target's walk starts unloaded), without FIRE's iterations.
+    double steps = 0;
+    for (int k = 2; k <= last; ++k) {
+      const gel::v1::CurveRow &row = run.curve.rows(k), &before = run.curve.rows(k - 1);
+      steps += static_cast<double>((row.steps() - row.relax_iterations()) - before.steps());
+    }
+    return steps;
+  };
+  const double ratio = walk_steps(fast) / walk_steps(plain);
+  EXPECT_GT(ratio, 0.45) << walk_steps(fast) << " against " << walk_steps(plain);
+  EXPECT_LT(ratio, 0.55) << walk_steps(fast) << " against " << walk_steps(plain);
+  for (int k = 1; k <= last; ++k) EXPECT_TRUE(fast.curve.rows(k).equilibrated()) << "k " << k;
+}
+
 }  // namespace
 }  // namespace gel
