@@ -1,5 +1,6 @@
 #include "worker_pool.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "floating_point.hpp"
@@ -23,9 +24,9 @@ constexpr std::uint64_t kTaskBits = 32;
 constexpr std::uint64_t kTaskMask = (std::uint64_t{1} << kTaskBits) - 1;
 }  // namespace
 
-WorkerPool::WorkerPool(int threads) : threads_(threads) {
+WorkerPool::WorkerPool(int threads) : threads_(threads), cursors_(static_cast<std::size_t>(std::max(threads, 1))) {
   if (threads < 1) throw std::invalid_argument("threads must be >= 1");
-  for (int rank = 1; rank < threads; ++rank) workers_.emplace_back([this] { worker(); });
+  for (int rank = 1; rank < threads; ++rank) workers_.emplace_back([this, rank] { worker(rank); });
 }
 
 WorkerPool::~WorkerPool() {
@@ -35,21 +36,33 @@ WorkerPool::~WorkerPool() {
   for (auto& thread : workers_) thread.join();
 }
 
-void WorkerPool::share(std::uint64_t generation) {
-  const std::uint64_t tag = (generation & kTaskMask) << kTaskBits;
-  std::uint64_t claim = next_task_.load(std::memory_order_acquire);
+bool WorkerPool::drain(std::uint64_t tag, int owner) {
+  std::atomic<std::uint64_t>& cursor = cursors_[static_cast<std::size_t>(owner)].next;
+  std::uint64_t claim = cursor.load(std::memory_order_acquire);
   for (;;) {
-    if ((claim & ~kTaskMask) != tag) return;  // another region by now
-    const std::size_t task = static_cast<std::size_t>(claim & kTaskMask);
-    if (task >= tasks_.load(std::memory_order_acquire)) return;
-    if (!next_task_.compare_exchange_weak(claim, claim + 1, std::memory_order_acq_rel)) continue;
+    if ((claim & ~kTaskMask) != tag) return false;  // another region by now
+    // Share `owner` is [tasks * owner / T, tasks * (owner + 1) / T); tasks_ is read only after
+    // a claim of this region was seen, so it is this region's.
+    const std::size_t tasks = tasks_.load(std::memory_order_acquire);
+    const std::size_t threads = static_cast<std::size_t>(threads_);
+    const std::size_t begin = tasks * static_cast<std::size_t>(owner) / threads;
+    const std::size_t end = tasks * static_cast<std::size_t>(owner + 1) / threads;
+    const std::size_t task = begin + static_cast<std::size_t>(claim & kTaskMask);
+    if (task >= end) return true;
+    if (!cursor.compare_exchange_weak(claim, claim + 1, std::memory_order_acq_rel)) continue;
     // The claim succeeded, so this region cannot end before the task is done: fn_ is its own,
     // and so is the caller's floating-point mode, which every task runs in.
     set_floating_point_mode(fp_mode_);
     fn_(context_, task);
     tasks_done_.fetch_add(1, std::memory_order_release);
-    claim = next_task_.load(std::memory_order_acquire);
+    claim = cursor.load(std::memory_order_acquire);
   }
+}
+
+void WorkerPool::share(std::uint64_t generation, int rank) {
+  const std::uint64_t tag = (generation & kTaskMask) << kTaskBits;
+  for (int k = 0; k < threads_; ++k)
+    if (!drain(tag, (rank + k) % threads_)) return;
 }
 
 void WorkerPool::run_erased(std::size_t tasks, void (*fn)(void*, std::size_t), void* context) {
@@ -58,16 +71,16 @@ void WorkerPool::run_erased(std::size_t tasks, void (*fn)(void*, std::size_t), v
   const std::uint64_t tag = (generation & kTaskMask) << kTaskBits;
   // Closed first: a worker still holding a claim of the last region now fails its exchange, so
   // it never runs a task with the fields being rewritten below.
-  next_task_.store(tag | kTaskMask, std::memory_order_release);
+  for (Cursor& cursor : cursors_) cursor.next.store(tag | kTaskMask, std::memory_order_release);
   fn_ = fn;
   context_ = context;
   fp_mode_ = floating_point_mode();
   tasks_.store(tasks, std::memory_order_release);
   tasks_done_.store(0, std::memory_order_relaxed);
-  next_task_.store(tag, std::memory_order_release);
+  for (Cursor& cursor : cursors_) cursor.next.store(tag, std::memory_order_release);
   generation_.store(generation, std::memory_order_release);
   generation_.notify_all();
-  share(generation);
+  share(generation, 0);
   int spins = 0;
   while (tasks_done_.load(std::memory_order_acquire) < tasks) {
     if (++spins < kSpinsBeforeSleep)
@@ -77,7 +90,7 @@ void WorkerPool::run_erased(std::size_t tasks, void (*fn)(void*, std::size_t), v
   }
 }
 
-void WorkerPool::worker() {
+void WorkerPool::worker(int rank) {
   // Generation 0 is the pool's start, not a region: a worker that the OS starts only after the
   // first region was published must still take part in it (loading the counter here made such a
   // worker skip that region and leave all of it to the caller).
@@ -94,7 +107,7 @@ void WorkerPool::worker() {
     }
     seen = now;
     if (quit_.load()) return;
-    share(now);
+    share(now, rank);
   }
 }
 
