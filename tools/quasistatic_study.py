@@ -94,11 +94,17 @@ VARIANTS = {
     # run) with walls at 2x the preset's speed: walls2x over the whole run moved P_y at phi <= 0.34
     # only, where this variant keeps the preset's walls.
     "quasistatic-loaded-walls2x": {"fidelity": "quasistatic", "loaded_wall_factor": 2},
+    # The same at 4x: faster walls over the whole run came within 6 % of the slow limit from
+    # phi 0.37 on (docs/exponents.md).
+    "quasistatic-loaded-walls4x": {"fidelity": "quasistatic", "loaded_wall_factor": 4},
+    # 2x from 3e-2 F0/a^2 on (bond 1 from phi ~ 0.42, regime III): at the paper's size the 2x walls
+    # from 1e-2 on lowered P_y by 5-16 % at phi 0.31-0.42, the crossover to regime III.
+    "quasistatic-loaded-walls2x-above3e-2": {"fidelity": "quasistatic", "loaded_wall_factor": 2, "loaded_wall_stress": 3e-2},
 }
 # Variant keys copied as they are into the scene's compression message.
 COMPRESSION_FIELDS = ("adaptive_wall_max_factor", "approach_shortcut", "adaptive_wall_drag_fraction", "m_exam",
                       "quasistatic_approach", "relax_max_iterations", "relax_dt_max_factor", "walk_dt_factor",
-                      "walk_dt_stress", "loaded_wall_factor")
+                      "walk_dt_stress", "loaded_wall_factor", "loaded_wall_stress")
 REFERENCE = "paper"
 DEFAULT_VARIANTS = ("quasistatic", "paper")
 REFERENCE_WALL_SPEED = {"bond1": 5e-4, "bond2": 1e-4}

@@ -70,7 +70,7 @@ struct CompressArgs {
   std::optional<bool> shortcut;
   std::string exam_ruptures, approach;
   double strain_step = 0, relax_tolerance = 0, relax_floor = 0, relax_dt_max = 0;
-  double walk_dt_factor = 0, walk_dt_stress = 0, loaded_wall_factor = 0;
+  double walk_dt_factor = 0, walk_dt_stress = 0, loaded_wall_factor = 0, loaded_wall_stress = 0;
   std::int64_t relax_max_iterations = 0;
   // Ensemble: members by seed, `jobs` at a time, each in out/seed_<seed>.
   std::string seeds;
@@ -167,6 +167,7 @@ gel::v1::Scene build_scene(const CompressArgs& args) {
   if (args.walk_dt_factor != 0) c->set_walk_dt_factor(args.walk_dt_factor);
   if (args.walk_dt_stress != 0) c->set_walk_dt_stress(args.walk_dt_stress);
   if (args.loaded_wall_factor != 0) c->set_loaded_wall_factor(args.loaded_wall_factor);
+  if (args.loaded_wall_stress != 0) c->set_loaded_wall_stress(args.loaded_wall_stress);
   if (args.relax_max_iterations != 0) c->set_relax_max_iterations(args.relax_max_iterations);
   if (args.dt != 0) scene.mutable_integration()->set_dt(args.dt);
   if (args.dt_fraction != 0) scene.mutable_integration()->set_dt_fraction(args.dt_fraction);
@@ -571,7 +572,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--relax-dt-max", args->relax_dt_max, "quasistatic: FIRE's largest step over the dynamics' dt, times FIRE's inertia gain (default 3)");
   sub.add_option("--walk-dt-factor", args->walk_dt_factor, "the walls' walk takes this x dt while they carry less than --walk-dt-stress (1 = off; default: the fidelity's)");
   sub.add_option("--walk-dt-stress", args->walk_dt_stress, "wall stress below which the walk takes the longer step [F0/a^2] (default 1e-2)");
-  sub.add_option("--loaded-wall-factor", args->loaded_wall_factor, "the walls move at this x v_wall while they carry --walk-dt-stress or more (1 = off, the default)");
+  sub.add_option("--loaded-wall-factor", args->loaded_wall_factor, "the walls move at this x v_wall while they carry --loaded-wall-stress or more (1 = off, the default)");
+  sub.add_option("--loaded-wall-stress", args->loaded_wall_stress, "wall stress from which the walls move at --loaded-wall-factor [F0/a^2] (default: --walk-dt-stress)");
   sub.add_option("--relax-max-iterations", args->relax_max_iterations, "quasistatic: FIRE iterations per strain step (default 1e6)");
   sub.add_option("--profile-slices", args->profile_slices, "slices of the phi(y) profile");
   sub.add_option("--checkpoint-seconds", args->checkpoint_seconds, "wall-clock seconds between checkpoints");

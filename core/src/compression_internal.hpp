@@ -34,13 +34,14 @@ struct CompressionSettings {
   std::int64_t relax_max_iterations = 0;  // per strain step
   double walk_dt_factor = 1;      // the walls' walk below walk_dt_stress takes this x dt
   double walk_dt_stress = 0;      // [F0/a^2]
-  double loaded_wall_factor = 1;  // the walls at and above walk_dt_stress move at this x v_wall
+  double loaded_wall_factor = 1;  // the walls at and above loaded_wall_stress move at this x v_wall
+  double loaded_wall_stress = 0;  // [F0/a^2]
 };
 
 // docs/quasistatic.md "Loaded walls": the walls' speed for a walk chunk, from the wall stress
 // at its start (so a resumed run decides the same).
 inline double loaded_wall_speed(const CompressionSettings& settings, double v_wall, double wall_stress) {
-  if (!(settings.loaded_wall_factor > 1.0) || !(std::abs(wall_stress) >= settings.walk_dt_stress)) return v_wall;
+  if (!(settings.loaded_wall_factor > 1.0) || !(std::abs(wall_stress) >= settings.loaded_wall_stress)) return v_wall;
   return settings.loaded_wall_factor * v_wall;
 }
 

@@ -321,6 +321,8 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
                    "times v_wall (0 or 1 = off)");
     require_wall_step_within_skin("compression.loaded_wall_factor", c->v_wall() * c->loaded_wall_factor());
   }
+  if (c->loaded_wall_stress() == 0.0) c->set_loaded_wall_stress(c->walk_dt_stress());
+  require_positive("compression.loaded_wall_stress", c->loaded_wall_stress());
   if (c->profile_slices() == 0) c->set_profile_slices(kDefaultProfileSlices);
   if (c->profile_slices() < 1 || c->profile_slices() > 100000)
     throw InvalidArgument("compression.profile_slices", "must be between 1 and 100000");
@@ -458,6 +460,7 @@ CompressionSettings compression_settings(const gel::v1::Compression& c) {
   s.walk_dt_factor = std::max(1.0, c.walk_dt_factor());
   s.walk_dt_stress = c.walk_dt_stress();
   s.loaded_wall_factor = std::max(1.0, c.loaded_wall_factor());
+  s.loaded_wall_stress = c.loaded_wall_stress();
   return s;
 }
 

@@ -146,11 +146,12 @@ TEST(WalkStep, BelowTheStressOnlyAndNeverPastHalfOfVerletsLimit) {
   EXPECT_EQ(asked, 0);
 }
 
-// Loaded walls (docs/quasistatic.md "Loaded walls"): at and above walk_dt_stress the walls may
+// Loaded walls (docs/quasistatic.md "Loaded walls"): at and above loaded_wall_stress the walls may
 // move faster; below it, or with the factor off, at v_wall.
 TEST(LoadedWalls, FasterOnlyAtAndAboveTheStress) {
   CompressionSettings settings;
-  settings.walk_dt_stress = 1e-2;
+  settings.walk_dt_stress = 1e-3;  // not the loaded walls' stress
+  settings.loaded_wall_stress = 1e-2;
   const double v = 3e-4;
   EXPECT_EQ(loaded_wall_speed(settings, v, 5e-2), v);  // off by default
   settings.loaded_wall_factor = 2;
@@ -172,17 +173,26 @@ TEST(LoadedWalls, TheFactorIsCheckedAndNoPresetSetsIt) {
     return scene;
   };
   EXPECT_EQ(compression_settings(resolve_compression_scene(with_factor(2)).compression()).loaded_wall_factor, 2.0);
+  // The stress defaults to the walk step's and may be given apart from it.
+  EXPECT_EQ(resolve_compression_scene(with_factor(2)).compression().loaded_wall_stress(), 1e-2);
+  gel::v1::Scene apart = with_factor(2);
+  apart.mutable_compression()->set_loaded_wall_stress(3e-2);
+  EXPECT_EQ(compression_settings(resolve_compression_scene(apart).compression()).loaded_wall_stress, 3e-2);
+  EXPECT_EQ(compression_settings(resolve_compression_scene(apart).compression()).walk_dt_stress, 1e-2);
+  apart.mutable_compression()->set_loaded_wall_stress(-1);
+  expect_invalid_walk(apart, "compression.loaded_wall_stress");
   expect_invalid_walk(with_factor(0.5), "compression.loaded_wall_factor");
   expect_invalid_walk(with_factor(11), "compression.loaded_wall_factor");
   expect_invalid_walk(with_factor(std::nan("")), "compression.loaded_wall_factor");
 }
 
 TEST(LoadedWalls, TheLoadedWalkTakesHalfTheStepsAtTwiceTheSpeed) {
-  // A stress threshold of zero makes every walk loaded once the walls touch the network; the
+  // A stress threshold of ~zero makes every walk loaded once the walls touch the network; the
   // walls then cover each target's distance in half the steps at the same dt.
   auto scene = [](double factor) {
-    gel::v1::Scene s = tiny_walk_scene(1, 1e-12);
+    gel::v1::Scene s = tiny_walk_scene(1, 0);
     s.mutable_compression()->set_loaded_wall_factor(factor);
+    s.mutable_compression()->set_loaded_wall_stress(1e-12);
     return s;
   };
   const CompressionResult plain = run_compression(scene(1), RunOptions{});
