@@ -23,7 +23,7 @@ PAPER_CONTEXT = (
     "protocol never equilibrates the rows below φ ≈ 0.31, while every row of this study is at equilibrium, so "
     "the low-φ rows of the two are not the same measurement, and the low-φ numbers (λ_II, the gel point, the "
     "span of P_y, where dissipation overtakes storage) are the least comparable. The paper's own code, run on "
-    "five of the same 1408-particle bond-1 gels (docs/reference_code.md, \"As ensembles\"), gives a λ_II inside "
+    "eight of the same 1408-particle bond-1 gels (docs/reference_code.md, \"As ensembles\"), gives a λ_II inside "
     "the intervals of the product's `paper` and `quasistatic` runs of those gels, and all three intervals hold the "
     "published 5.8: on that box the codes agree, so the higher λ_II at the paper's size is not a difference between "
     "the product and the paper's code. Walls at half and a quarter of the paper's speed (8 seeds each, small bond-1 "
