@@ -28,18 +28,9 @@ bool sanitized() { return std::getenv("GEL_SANITIZED") != nullptr; }
 
 // A fresh, empty temporary directory named after the running test.
 std::string temp_dir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("gel_compression_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
+  const std::string dir = fresh_temp_path("compression_" + name);
   std::filesystem::create_directories(dir);
-  return dir.string();
-}
-
-// The tiny scene at the fast fidelity, tested every 200 steps.
-gel::v1::Scene tiny_scene() {
-  gel::v1::Scene scene = tiny_compression_scene("fast");
-  scene.mutable_compression()->set_m_exam(200);
-  return scene;
+  return dir;
 }
 
 template <class F>
@@ -183,7 +174,7 @@ TEST(CompressionScene, LargerPresetsScaleThePaperBox) {
 // Each criterion alone withholds equilibrium; a broken bond delays it even when the stresses
 // are balanced and steady.
 TEST(CompressionEquilibrium, NeedsAllThreeCriteria) {
-  const gel::v1::Compression c = resolve_compression_scene(tiny_scene()).compression();
+  const gel::v1::Compression c = resolve_compression_scene(tiny_fast_scene()).compression();
   const double a = c.a_tolerance(), b = c.b_tolerance();
   EquilibriumSample steady;
   steady.p_top = steady.p_bot = steady.previous_p = 1.0;
@@ -219,7 +210,7 @@ TEST(CompressionEquilibrium, NeedsAllThreeCriteria) {
 
 TEST(CompressionScene, InvalidFieldsAreRejectedByName) {
   auto with = [](auto change) {
-    gel::v1::Scene scene = tiny_scene();
+    gel::v1::Scene scene = tiny_fast_scene();
     change(*scene.mutable_compression());
     return scene;
   };
@@ -241,7 +232,7 @@ TEST(CompressionScene, InvalidFieldsAreRejectedByName) {
   });
   expect_invalid("compression.profile_slices", [&] { resolve_compression_scene(with([](auto& c) { c.set_profile_slices(-1); })); });
   expect_invalid("generator.n_floc", [] {
-    gel::v1::Scene scene = tiny_scene();
+    gel::v1::Scene scene = tiny_fast_scene();
     scene.mutable_generator()->set_n_floc(6);
     resolve_compression_scene(scene);
   });
@@ -399,7 +390,7 @@ void expect_resume_bit_identical(const gel::v1::Scene& scene) {
   std::filesystem::remove_all(resumed_dir);
 }
 
-TEST(Compression, ResumeIsBitIdentical) { expect_resume_bit_identical(tiny_scene()); }
+TEST(Compression, ResumeIsBitIdentical) { expect_resume_bit_identical(tiny_fast_scene()); }
 
 // A tiny compression into `dir`, stopped (with its checkpoints) once it reaches target 2; the
 // options resume it there. `stop` must outlive the options.
@@ -411,7 +402,7 @@ RunOptions stopped_at_target_2(const std::string& dir, std::atomic<bool>& stop) 
   options.on_progress = [&stop](const gel::v1::Progress& p) {
     if (p.k() >= 2) stop = true;
   };
-  EXPECT_TRUE(run_compression(tiny_scene(), options).stopped);
+  EXPECT_TRUE(run_compression(tiny_fast_scene(), options).stopped);
   return options;
 }
 
@@ -449,7 +440,7 @@ TEST(Compression, ADamagedCheckpointIsNeverResumedButThePreviousOneIs) {
   EXPECT_NE(resumed.checkpoint_problem.find("checksum mismatch"), std::string::npos);
   RunOptions whole;
   whole.out_dir = temp_dir("flipped-reference");  // rows name their snapshots only with an out_dir
-  const CompressionResult reference = run_compression(tiny_scene(), whole);
+  const CompressionResult reference = run_compression(tiny_fast_scene(), whole);
   std::filesystem::remove_all(whole.out_dir);
   ASSERT_EQ(resumed.curve.rows_size(), reference.curve.rows_size());
   for (int k = 0; k < reference.curve.rows_size(); ++k) expect_same_row(reference.curve.rows(k), resumed.curve.rows(k));
@@ -524,7 +515,7 @@ TEST(Compression, TheCheckpointIsAVersionedProtobufMessage) {
 
 // The adaptive wall keeps controller state (speed factor, ledger baselines) in the checkpoint.
 TEST(Compression, AdaptiveWallResumeIsBitIdentical) {
-  gel::v1::Scene scene = tiny_scene();
+  gel::v1::Scene scene = tiny_fast_scene();
   scene.mutable_compression()->set_adaptive_wall_max_factor(4);
   scene.mutable_compression()->set_adaptive_wall_drag_fraction(0.5);
   expect_resume_bit_identical(scene);
@@ -535,7 +526,7 @@ TEST(Compression, AdaptiveWallResumeIsBitIdentical) {
 // end exactly at the targets.
 TEST(Compression, AdaptiveWallFollowsTheDragShare) {
   auto moving_steps = [](double factor, double drag_fraction) {
-    gel::v1::Scene scene = tiny_scene();
+    gel::v1::Scene scene = tiny_fast_scene();
     gel::v1::Compression* c = scene.mutable_compression();
     c->set_steps(2);
     c->set_a_tolerance(1e3);  // equilibrium at the first test: the steps are the move plus m_exam
@@ -562,7 +553,7 @@ TEST(Compression, AdaptiveWallFollowsTheDragShare) {
 
 // With B unreachable, no target equilibrates: every row is recorded, flagged, after the wait.
 TEST(Compression, StepThatCannotEquilibrateIsFlaggedNotDropped) {
-  gel::v1::Scene scene = tiny_scene();
+  gel::v1::Scene scene = tiny_fast_scene();
   gel::v1::Compression* c = scene.mutable_compression();
   c->set_b_tolerance(1e-300);
   c->set_stress_floor(1e-300);
@@ -617,7 +608,7 @@ TEST(Compression, ApproachShortcutJumpsTheStressFreeGap) {
 }
 
 TEST(Compression, NumericalTroubleIsAnErrorNotACurve) {
-  gel::v1::Scene scene = tiny_scene();
+  gel::v1::Scene scene = tiny_fast_scene();
   scene.mutable_integration()->set_dt(0.3);  // omega dt ~ 4 for bond 1: beyond Verlet's limit 2
   scene.mutable_compression()->set_v_wall(0.01);
   try {
@@ -630,7 +621,7 @@ TEST(Compression, NumericalTroubleIsAnErrorNotACurve) {
 }
 
 TEST(CurveIo, JsonRoundTripAndCsv) {
-  gel::v1::Scene scene = tiny_scene();
+  gel::v1::Scene scene = tiny_fast_scene();
   scene.mutable_compression()->set_steps(2);
   const std::string dir = temp_dir("curve_io");
   RunOptions options;
@@ -666,7 +657,7 @@ TEST(CurveIo, JsonRoundTripAndCsv) {
 
 // The quasi-static method: tiny scene, affine steps with FIRE relaxation.
 gel::v1::Scene tiny_quasistatic_scene(const std::string& approach = "walls") {
-  gel::v1::Scene scene = tiny_scene();
+  gel::v1::Scene scene = tiny_fast_scene();
   scene.mutable_compression()->set_fidelity("quasistatic");
   scene.mutable_compression()->set_quasistatic_approach(approach);
   scene.mutable_compression()->set_quasistatic_strain_step(0.02);
@@ -747,7 +738,7 @@ TEST(Compression, WallsThenAffineFollowsTheWallsUntilARelaxedRowSpans) {
 }
 
 TEST(CompressionEquilibrium, ANetworkThatDoesNotSpanIsOnlyAtEquilibriumAtRest) {
-  gel::v1::Scene scene = tiny_scene();
+  gel::v1::Scene scene = tiny_fast_scene();
   const gel::v1::Compression c = resolve_compression_scene(scene).compression();
   EXPECT_EQ(c.exam_ruptures(), "all");
   EquilibriumSample sample;

@@ -1,6 +1,10 @@
 #pragma once
 // Small scenes shared by the engine tests.
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
+#include <string>
 
 #include "gel/configuration.hpp"
 #include "gel/system.hpp"
@@ -80,6 +84,22 @@ inline gel::v1::Scene tiny_compression_scene(const char* fidelity) {
   c->set_steps(3);
   c->set_phi_max(0.5);
   return scene;
+}
+
+// tiny_compression_scene at the fast fidelity, tested every 200 steps: the paper's waiting
+// protocol in a fraction of a second.
+inline gel::v1::Scene tiny_fast_scene() {
+  gel::v1::Scene scene = tiny_compression_scene("fast");
+  scene.mutable_compression()->set_m_exam(200);
+  return scene;
+}
+
+// A path under the temporary folder that no earlier run left behind: gel_<name>_<pid>, removed
+// if it exists (a test that wants the folder itself creates it, or lets the run do so).
+inline std::string fresh_temp_path(const std::string& name) {
+  const auto path = std::filesystem::temp_directory_path() / ("gel_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(path);
+  return path.string();
 }
 
 }  // namespace gel

@@ -13,7 +13,6 @@
 #include <vector>
 
 #include <google/protobuf/util/message_differencer.h>
-#include <unistd.h>
 
 #include "curve_csv.hpp"
 #include "gel/compression.hpp"
@@ -25,17 +24,7 @@
 namespace gel {
 namespace {
 
-std::string temp_dir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("gel_thermo_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  return dir.string();
-}
-
-gel::v1::Scene fast_scene() {
-  gel::v1::Scene scene = tiny_compression_scene("fast");
-  scene.mutable_compression()->set_m_exam(200);
-  return scene;
-}
+std::string temp_dir(const std::string& name) { return fresh_temp_path("thermo_" + name); }
 
 std::vector<std::vector<std::string>> read_lines(const std::string& path) {
   std::ifstream in(path);
@@ -116,7 +105,7 @@ void expect_log_changes_nothing(const gel::v1::Scene& scene, std::int64_t every)
   std::filesystem::remove_all(logged);
 }
 
-TEST(ThermoLog, ChangesNothingAndEndsWithTheFinalStateDynamics) { expect_log_changes_nothing(fast_scene(), 1000); }
+TEST(ThermoLog, ChangesNothingAndEndsWithTheFinalStateDynamics) { expect_log_changes_nothing(tiny_fast_scene(), 1000); }
 
 TEST(ThermoLog, ChangesNothingAndEndsWithTheFinalStateQuasistatic) {
   expect_log_changes_nothing(tiny_compression_scene("quasistatic"), 5000);
@@ -125,7 +114,7 @@ TEST(ThermoLog, ChangesNothingAndEndsWithTheFinalStateQuasistatic) {
 // A run killed after its checkpoint left lines past it and a torn one: the resume drops them and
 // the file ends as an uninterrupted run's, byte for byte.
 TEST(ThermoLog, AResumeDropsWhatCameAfterTheCheckpoint) {
-  const gel::v1::Scene scene = fast_scene();
+  const gel::v1::Scene scene = tiny_fast_scene();
   const std::string reference_dir = temp_dir("reference"), resumed_dir = temp_dir("resumed");
   RunOptions reference;
   reference.out_dir = reference_dir;
@@ -182,7 +171,7 @@ TEST(ThermoLog, AResumeRefusesAForeignFile) {
 // The scene's output.thermo_every (how a geld job asks for the log) writes DIR/thermo.csv; a
 // negative one is refused naming the field.
 TEST(ThermoLog, TheSceneFieldAsksForItAndIsChecked) {
-  gel::v1::Scene scene = fast_scene();
+  gel::v1::Scene scene = tiny_fast_scene();
   scene.mutable_compression()->set_steps(1);
   scene.mutable_output()->set_thermo_every(2000);
   const std::string dir = temp_dir("scene");

@@ -10,8 +10,6 @@
 #include <string>
 #include <tuple>
 
-#include <unistd.h>
-
 #include "gel/bond_evaluator.hpp"
 #include "gel/compression.hpp"
 #include "gel/configuration.hpp"
@@ -179,7 +177,7 @@ TEST(VirialStress, MatchesTheWallStressThroughTheFreeParticlesForcesInAnyState) 
 // residual force allows (the identity above with |F_p| <= residual), in the whole box and in every
 // slice; the kinetic part left out is nil; the row holds the stress of its snapshot.
 TEST(VirialStress, AnEquilibratedRowHasSigmaYyEqualToMinusP) {
-  const std::string dir = (std::filesystem::temp_directory_path() / ("gel_virial_" + std::to_string(::getpid()))).string();
+  const std::string dir = fresh_temp_path("virial");
   RunOptions options;
   options.out_dir = dir;
   const CompressionResult result = run_compression(tiny_compression_scene("quasistatic"), options);

@@ -90,8 +90,7 @@ TEST(WalkStep, TheWalkTakesLongerStepsForTheSameTimeAndEveryRelaxationTheScenesS
   // The same walk to the first target (the same wall distance at the same speed) in a quarter
   // of the steps; the simulated time of the walk agrees to within the last step of each.
   const CompressionResult plain = run_compression(tiny_walk_scene(1, 0), RunOptions{});
-  const std::string dir = (std::filesystem::temp_directory_path() / ("gel_walk_step_" + std::to_string(::getpid()))).string();
-  std::filesystem::remove_all(dir);
+  const std::string dir = fresh_temp_path("walk_step");
   RunOptions options;
   options.out_dir = dir;
   options.write_snapshots = false;
