@@ -20,6 +20,7 @@ namespace {
 gel::v1::Scene tiny_walk_scene(double walk_dt_factor, double walk_dt_stress) {
   gel::v1::Scene scene = tiny_compression_scene("quasistatic");
   scene.mutable_compression()->set_walk_dt_factor(walk_dt_factor);
+  scene.mutable_compression()->set_loaded_wall_factor(1);  // the walk step alone
   if (walk_dt_stress > 0) scene.mutable_compression()->set_walk_dt_stress(walk_dt_stress);
   return scene;
 }
@@ -161,22 +162,68 @@ TEST(LoadedWalls, FasterOnlyAtAndAboveTheStress) {
   EXPECT_EQ(loaded_wall_speed(settings, v, std::nan("")), v);  // the guard's business, not a reason to hurry
 }
 
-TEST(LoadedWalls, TheFactorIsCheckedAndNoPresetSetsIt) {
+TEST(LoadedWalls, TheQuasistaticPresetSetsTwiceFromThreeHundredthsAndPaperNone) {
   gel::v1::Scene preset;
   preset.set_preset("paper-bond1");
-  EXPECT_EQ(resolve_compression_scene(preset).compression().loaded_wall_factor(), 0.0);
-  EXPECT_EQ(compression_settings(resolve_compression_scene(preset).compression()).loaded_wall_factor, 1.0);
+  const gel::v1::Compression resolved = resolve_compression_scene(preset).compression();
+  EXPECT_EQ(resolved.loaded_wall_factor(), 2.0);
+  EXPECT_EQ(resolved.loaded_wall_stress(), 3e-2);
+  EXPECT_EQ(resolved.walk_dt_stress(), 1e-2);  // the walk step keeps its own stress
+  for (const char* fidelity : {"paper", "fast"}) {
+    gel::v1::Scene other = preset;
+    other.mutable_compression()->set_fidelity(fidelity);
+    EXPECT_EQ(resolve_compression_scene(other).compression().loaded_wall_factor(), 0.0) << fidelity;
+    EXPECT_EQ(compression_settings(resolve_compression_scene(other).compression()).loaded_wall_factor, 1.0) << fidelity;
+  }
+  // A changed fidelity derives the field again; an explicit 1 keeps the walls at v_wall.
+  gel::v1::Scene changed = resolve_compression_scene(preset);
+  changed.mutable_compression()->set_fidelity("paper");
+  EXPECT_EQ(resolve_compression_scene(changed).compression().loaded_wall_factor(), 0.0);
+  EXPECT_EQ(resolve_compression_scene(changed).compression().loaded_wall_stress(), 1e-2);
+  gel::v1::Scene pinned = preset;
+  pinned.mutable_compression()->set_loaded_wall_factor(1);
+  EXPECT_EQ(resolve_compression_scene(pinned).compression().loaded_wall_factor(), 1.0);
+  // A stored scene resolved before the field existed keeps 0 (off), as its job started.
+  gel::v1::Scene stored = resolve_compression_scene(preset);
+  stored.mutable_compression()->clear_loaded_wall_factor();
+  EXPECT_EQ(resolve_compression_scene(stored).compression().loaded_wall_factor(), 0.0);
+  // Walls already near the skin's limit get the factor only as far as it allows.
+  // The fastest walls the skin allows (bisected), then walls at 0.7 of that speed.
+  gel::v1::Scene fast_walls = tiny_compression_scene("quasistatic");
+  auto allowed = [&fast_walls](double v_wall_v0) {
+    fast_walls.mutable_compression()->set_v_wall_v0(v_wall_v0);
+    try {
+      resolve_compression_scene(fast_walls);
+      return true;
+    } catch (const InvalidArgument& e) {
+      EXPECT_EQ(e.field(), "compression.v_wall") << e.what();
+      return false;
+    }
+  };
+  double fastest = 1e-4, too_fast = 1e-4;
+  while (allowed(too_fast) && too_fast < 1e6) too_fast *= 2;
+  ASSERT_LT(too_fast, 1e6);
+  fastest = too_fast / 2;
+  for (int halving = 0; halving < 40; ++halving) (allowed(0.5 * (fastest + too_fast)) ? fastest : too_fast) = 0.5 * (fastest + too_fast);
+  fast_walls.mutable_compression()->set_v_wall_v0(0.7 * fastest);
+  const gel::v1::Compression near_limit = resolve_compression_scene(fast_walls).compression();
+  EXPECT_NEAR(near_limit.loaded_wall_factor(), 1 / 0.7, 0.01);
+  EXPECT_NEAR(near_limit.walk_dt_factor(), 1 / 0.7, 0.01);
+  EXPECT_NO_THROW(run_compression(fast_walls, RunOptions{}).finished);
+}
+
+TEST(LoadedWalls, TheFactorIsChecked) {
   auto with_factor = [](double factor) {
     gel::v1::Scene scene = tiny_compression_scene("quasistatic");
     scene.mutable_compression()->set_loaded_wall_factor(factor);
     return scene;
   };
   EXPECT_EQ(compression_settings(resolve_compression_scene(with_factor(2)).compression()).loaded_wall_factor, 2.0);
-  // The stress defaults to the walk step's and may be given apart from it.
-  EXPECT_EQ(resolve_compression_scene(with_factor(2)).compression().loaded_wall_stress(), 1e-2);
+  // The stress defaults to the preset's and may be given apart from it.
+  EXPECT_EQ(resolve_compression_scene(with_factor(2)).compression().loaded_wall_stress(), 3e-2);
   gel::v1::Scene apart = with_factor(2);
-  apart.mutable_compression()->set_loaded_wall_stress(3e-2);
-  EXPECT_EQ(compression_settings(resolve_compression_scene(apart).compression()).loaded_wall_stress, 3e-2);
+  apart.mutable_compression()->set_loaded_wall_stress(5e-2);
+  EXPECT_EQ(compression_settings(resolve_compression_scene(apart).compression()).loaded_wall_stress, 5e-2);
   EXPECT_EQ(compression_settings(resolve_compression_scene(apart).compression()).walk_dt_stress, 1e-2);
   apart.mutable_compression()->set_loaded_wall_stress(-1);
   expect_invalid_walk(apart, "compression.loaded_wall_stress");
