@@ -572,8 +572,8 @@ gelsim::Registrar compress_command("compress", "stepwise uniaxial compression of
   sub.add_option("--relax-dt-max", args->relax_dt_max, "quasistatic: FIRE's largest step over the dynamics' dt, times FIRE's inertia gain (default 3)");
   sub.add_option("--walk-dt-factor", args->walk_dt_factor, "the walls' walk takes this x dt while they carry less than --walk-dt-stress (1 = off; default: the fidelity's)");
   sub.add_option("--walk-dt-stress", args->walk_dt_stress, "wall stress below which the walk takes the longer step [F0/a^2] (default 1e-2)");
-  sub.add_option("--loaded-wall-factor", args->loaded_wall_factor, "the walls move at this x v_wall while they carry --loaded-wall-stress or more (1 = off, the default)");
-  sub.add_option("--loaded-wall-stress", args->loaded_wall_stress, "wall stress from which the walls move at --loaded-wall-factor [F0/a^2] (default: --walk-dt-stress)");
+  sub.add_option("--loaded-wall-factor", args->loaded_wall_factor, "the walls move at this x v_wall while they carry --loaded-wall-stress or more (quasistatic/default: 2; paper, fast: off; 1 = off)");
+  sub.add_option("--loaded-wall-stress", args->loaded_wall_stress, "wall stress from which the walls move at --loaded-wall-factor [F0/a^2] (quasistatic/default: 3e-2; otherwise --walk-dt-stress)");
   sub.add_option("--relax-max-iterations", args->relax_max_iterations, "quasistatic: FIRE iterations per strain step (default 1e6)");
   sub.add_option("--profile-slices", args->profile_slices, "slices of the phi(y) profile");
   sub.add_option("--checkpoint-seconds", args->checkpoint_seconds, "wall-clock seconds between checkpoints");
