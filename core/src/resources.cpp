@@ -23,15 +23,14 @@ double neighbours_within(double r) {
 // checkpoint (EngineState message and its serialised bytes).
 constexpr double kBytesPerParticle =
     10 * 8 + 1        // positions, orientation (cos, sin), velocities, forces: SoA doubles; wall side
-    + 6 * 4           // neighbour rebuild: degree, cell index and members, cell starts, fill, incidence start
+    + 5 * 4           // neighbour rebuild: degree, cell index and members, cell starts, fill
     + 8               // stiffness check's per-particle sum
     + 2 * (6 * 8 + 4) // snapshot: x, y, theta, velocities, wall; as a Configuration and as its message
     + 2 * (10 * 8);   // checkpoint: the state as a message and serialised
 constexpr double kBytesPerBond =
     2 * (2 * 4 + 6 * 8)  // Bond (i, j, contact points, image shift), vector capacity up to 2x
-    + 2 * 4 + 6 * 8      // the bond loop's arrays
-    + 2 * 4              // incidence list
-    + 5 * 8 + 8          // per-bond forces, gap and state
+    + 2 * (2 * 4 + 6 * 8 + 4 + 1)  // the bond loop's blocks (a bond across two blocks is in both)
+    + 2 * 4                        // its places there
     + 1 + 2 * 4          // break marks; rebuild's partner list
     + 2 * (2 * 4 + 4 * 8) // snapshot
     + 2 * (2 * 4 + 6 * 8); // checkpoint

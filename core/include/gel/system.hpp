@@ -22,6 +22,8 @@ namespace detail {
 struct KickCoefficients;
 struct KickTotals;
 struct BondScratch;
+struct BondBlock;
+struct ExactBond;
 class WorkerPool;
 }
 
@@ -224,7 +226,9 @@ class System {
   template <unsigned kBondMask>
   void bond_forces();
   template <unsigned kBondMask>
-  bool bond_force_exact(std::size_t b, double& min_delta);
+  void block_bond_forces(detail::BondBlock& block);
+  template <unsigned kBondMask>
+  detail::ExactBond exact_bond(std::size_t b) const;
   detail::KickCoefficients kick_coefficients() const;
   template <bool kDragOn>
   void first_half_kick_and_drift();

@@ -1,15 +1,17 @@
 #pragma once
-// The bond loop's data and kernels (System::bond_forces), in three passes:
-//  1. forces: every bond's force and torques from the particles' positions and orientations,
-//     into per-bond arrays. It gathers but never scatters and takes no branch, so it vectorises
-//     (gathers on AVX2/AVX-512, clones per instruction set: simd_dispatch.hpp), and chunks of
-//     bonds run on any thread.
-//  2. exact: the rare bonds flagged by pass 1 (a threshold exceeded, a bending angle beyond the
-//     series) are evaluated again exactly, in bond order, on one thread (resets, breaks and
-//     their bookkeeping: System::bond_force_exact).
-//  3. sum: each particle adds up the forces of its bonds in bond order (an incidence list), so
-//     every sum is the same sequence of additions as a serial loop over the bonds would make,
-//     whatever the number of threads, and particles in blocks run on any thread.
+// The bond loop's data and kernels (System::bond_forces, bond_loop.cpp). The particles are cut
+// into contiguous blocks (one per run on one thread, kParticleBlock each on several), and each
+// block's owner computes the forces on its particles:
+//  - forces: the bonds touching the block, in bond order, a chunk at a time into L1 arrays. This
+//    part gathers but never scatters and takes no branch, so it vectorises (gathers on
+//    AVX2/AVX-512, clones per instruction set: simd_dispatch.hpp).
+//  - exact: the rare bonds flagged there (a threshold exceeded, a bending angle beyond the
+//    series) are evaluated again exactly; what they change (breaks, resets, the energy ledger)
+//    is recorded and applied after the region, on one thread, in bond order.
+//  - scatter: each result is added to the ends of the bond that lie in the block, in bond order.
+// A bond whose ends lie in two blocks is computed by both owners (the same code on the same
+// inputs: the same bits), so no block waits for another, and every particle's force is the
+// same sequence of additions (its bonds in bond order) for any number of threads and blocks.
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -23,92 +25,139 @@
 
 namespace gel::detail {
 
-inline constexpr std::size_t kBondChunk = 256;       // bonds per task of pass 1 (one thread: its results stay in L1)
-inline constexpr std::size_t kParticleBlock = 2048;  // particles per task of pass 3 and the integrator
+inline constexpr std::size_t kBondChunk = 256;       // bonds per chunk of the forces part (its results stay in L1)
+inline constexpr std::size_t kParticleBlock = 2048;  // particles per task of the bond loop (several threads) and the integrator
 
-// A bond's state as pass 1 writes it. As wide as a double: GCC picks the vector length of a loop
-// from its narrowest type, and a byte per bond made pass 1 handle 32 bonds per iteration (four
-// registers per quantity, spilled to the stack) instead of 8.
+// A bond's state as the forces part writes it. As wide as a double: GCC picks the vector length
+// of a loop from its narrowest type, and a byte per bond made the loop handle 32 bonds per
+// iteration (four registers per quantity, spilled to the stack) instead of 8.
 using BondState = std::int64_t;
+inline constexpr BondState kCommon = 0, kFlagged = 1;
 
-// Per-bond results of pass 1 (and 2).
-struct BondForceArrays {
-  std::vector<double> force_x, force_y;  // on i (on j: opposite)
-  std::vector<double> torque_i, torque_j;
-  std::vector<double> delta;             // gap
-  std::vector<BondState> state;       // kCommon, kFlagged (pass 2 redoes it) or kBroken (no force)
-
-  static constexpr BondState kCommon = 0, kFlagged = 1, kBroken = 2;
-};
-
-// The bonds as arrays, a mirror of System::bonds_ (GCC vectorises gathers whose indices come
-// from an array, not from a field of an array of structs), and each particle's bonds in bond
-// order: entry 2b for a bond b whose i it is, 2b + 1 for one whose j it is.
+// Bonds as arrays, in the order of System::bonds_ (GCC vectorises gathers whose indices come
+// from an array, not from a field of an array of structs).
 struct BondArrays {
   std::vector<std::int32_t> i, j;
   std::vector<double> bix, biy, bjx, bjy;
   std::vector<double> shift_x, shift_y;
-  std::vector<std::int32_t> incidence_start;  // particle p's entries: [start[p], start[p + 1])
-  std::vector<std::int32_t> incidence;
-  bool valid = false;  // false: rebuilt from bonds_ before the next use
 
-  void assign(const std::vector<Bond>& bonds, std::size_t particles) {
-    const std::size_t n = bonds.size();
-    for (auto* column : {&bix, &biy, &bjx, &bjy, &shift_x, &shift_y}) column->resize(n);
-    i.resize(n);
-    j.resize(n);
-    for (std::size_t b = 0; b < n; ++b) set(b, bonds[b]);
-    incidence_start.assign(particles + 1, 0);
-    for (std::size_t b = 0; b < n; ++b) {
-      ++incidence_start[static_cast<std::size_t>(i[b]) + 1];
-      ++incidence_start[static_cast<std::size_t>(j[b]) + 1];
+  std::size_t size() const { return i.size(); }
+  void clear() {
+    i.clear();
+    j.clear();
+    for (auto* column : {&bix, &biy, &bjx, &bjy, &shift_x, &shift_y}) column->clear();
+  }
+  void push_back(const Bond& bond) {
+    i.push_back(bond.i);
+    j.push_back(bond.j);
+    bix.push_back(bond.bix);
+    biy.push_back(bond.biy);
+    bjx.push_back(bond.bjx);
+    bjy.push_back(bond.bjy);
+    shift_x.push_back(bond.shift_x);
+    shift_y.push_back(bond.shift_y);
+  }
+  // A bond whose contact points changed (a reset).
+  void set(std::size_t k, const Bond& bond) {
+    bix[k] = bond.bix;
+    biy[k] = bond.biy;
+    bjx[k] = bond.bjx;
+    bjy[k] = bond.bjy;
+  }
+};
+
+// Which ends of a bond lie in a block.
+using BondEnds = std::uint8_t;
+inline constexpr BondEnds kEndI = 1, kEndJ = 2;
+
+// A break or reset found by the exact path, applied after the region (System::handle_threshold).
+struct BondEventRecord {
+  std::int32_t bond;
+  BondEvent event;
+  double nx, ny;  // line of centres, for a reset's new contact points
+};
+
+// One block's bonds and what its last pass found. Aligned so that two owners never write to one
+// cache line.
+struct alignas(64) BondBlock {
+  std::size_t begin = 0, end = 0;  // its particles
+  BondArrays bonds;                // the bonds touching it, in bond order
+  std::vector<std::int32_t> bond;  // each one's index in System::bonds_
+  std::vector<BondEnds> ends;
+  double min_delta = std::numeric_limits<double>::infinity();  // of the bonds that did not break
+  std::vector<BondEventRecord> events;  // those it records: the bonds whose i is its own, in bond order
+
+  std::int32_t push_back(const Bond& b, std::size_t index, BondEnds which) {
+    bonds.push_back(b);
+    bond.push_back(static_cast<std::int32_t>(index));
+    ends.push_back(which);
+    return static_cast<std::int32_t>(bond.size() - 1);
+  }
+};
+
+// System::bonds_ cut into blocks of particles; invalidated by every change of bonds_ except a
+// reset, which set() copies into both blocks of the bond.
+struct BondBlocks {
+  std::size_t block_size = 0;
+  std::vector<BondBlock> blocks;
+  // Bond b's entry in the block of its i (2b) and of its j (2b + 1; -1 when that is the same block).
+  std::vector<std::int32_t> place;
+  bool valid = false;
+
+  void assign(const std::vector<Bond>& all, std::size_t particles, std::size_t size) {
+    block_size = size;
+    blocks.resize((particles + size - 1) / size);
+    for (std::size_t k = 0; k < blocks.size(); ++k) {
+      BondBlock& block = blocks[k];
+      block.begin = k * size;
+      block.end = std::min(particles, block.begin + size);
+      block.bonds.clear();
+      block.bond.clear();
+      block.ends.clear();
     }
-    for (std::size_t p = 0; p < particles; ++p) incidence_start[p + 1] += incidence_start[p];
-    incidence.resize(2 * n);
-    std::vector<std::int32_t> fill(incidence_start.begin(), incidence_start.end() - 1);
-    for (std::size_t b = 0; b < n; ++b) {
-      incidence[static_cast<std::size_t>(fill[static_cast<std::size_t>(i[b])]++)] = static_cast<std::int32_t>(2 * b);
-      incidence[static_cast<std::size_t>(fill[static_cast<std::size_t>(j[b])]++)] = static_cast<std::int32_t>(2 * b + 1);
+    place.resize(2 * all.size());
+    for (std::size_t b = 0; b < all.size(); ++b) {
+      const std::size_t bi = static_cast<std::size_t>(all[b].i) / size, bj = static_cast<std::size_t>(all[b].j) / size;
+      if (bi == bj) {
+        place[2 * b] = blocks[bi].push_back(all[b], b, kEndI | kEndJ);
+        place[2 * b + 1] = -1;
+      } else {
+        place[2 * b] = blocks[bi].push_back(all[b], b, kEndI);
+        place[2 * b + 1] = blocks[bj].push_back(all[b], b, kEndJ);
+      }
     }
     valid = true;
   }
-  // A bond whose contact points changed (a reset): the incidence is unchanged.
   void set(std::size_t b, const Bond& bond) {
-    i[b] = bond.i;
-    j[b] = bond.j;
-    bix[b] = bond.bix;
-    biy[b] = bond.biy;
-    bjx[b] = bond.bjx;
-    bjy[b] = bond.bjy;
-    shift_x[b] = bond.shift_x;
-    shift_y[b] = bond.shift_y;
+    blocks[static_cast<std::size_t>(bond.i) / block_size].bonds.set(static_cast<std::size_t>(place[2 * b]), bond);
+    if (place[2 * b + 1] >= 0)
+      blocks[static_cast<std::size_t>(bond.j) / block_size].bonds.set(static_cast<std::size_t>(place[2 * b + 1]), bond);
   }
 };
 
-// One thread's pass-1 results for one chunk, in L1 until its scatter (System::bond_forces).
+// A flagged bond evaluated exactly (System::exact_bond): its loads and gap, unless it breaks.
+struct ExactBond {
+  BondLoads loads;
+  double delta;
+  BondEvent event;
+  double nx, ny;
+};
+
+// One chunk's results of the forces part, in L1 until its scatter.
 struct BondChunkForces {
-  double force_x[kBondChunk], force_y[kBondChunk];
+  double force_x[kBondChunk], force_y[kBondChunk];  // on i (on j: opposite)
   double torque_i[kBondChunk], torque_j[kBondChunk];
-  double delta[kBondChunk];
+  double delta[kBondChunk];  // gap
   BondState state[kBondChunk];
 };
 
-// What a task of pass 1 tells the serial pass 2: the smallest delta of its common bonds, and
-// whether it flagged any (so that pass 2 reads only the tasks that did, not every bond's state).
-struct ChunkSummary {
-  double min_delta = std::numeric_limits<double>::infinity();
-  bool any_flagged = false;
-};
-
 struct BondScratch {
-  BondArrays bonds;
-  BondForceArrays forces;  // several threads: every bond's results
-  BondChunkForces chunk;   // one thread
-  std::vector<ChunkSummary> chunk_summaries;  // several threads: pass 1's summary per task
+  BondBlocks bonds;
+  std::vector<BondEventRecord> events;  // all blocks' events of one pass
 };
 
 // n and the gap of a bond from the separation r_j - r_i (image shift included); the contact
-// directions are filled in by the caller. Shared by pass 1 and the exact path, so both compute
+// directions are filled in by the caller. Shared by the forces part and the exact path, so both compute
 // the same bits.
 [[gnu::always_inline]] inline BondGeometry line_of_centres(double dx, double dy) {
   const double r = std::sqrt(dx * dx + dy * dy);
@@ -120,8 +169,7 @@ struct BondScratch {
   return g;
 }
 
-// What the sum pass needs of one bond: the force on i (on j: opposite) and both torques.
-// Pass 1 over bonds [begin, begin + count), into the out_* arrays (offset to begin already).
+// The forces part over bonds [begin, begin + count), into the out_* arrays (offset to begin already).
 // The outputs are restrict parameters: GCC honours restrict on parameters, not on local pointers,
 // and without it the loop needs more run-time alias checks than it will version for.
 template <unsigned kEffects, bool kShift, bool kCheckThresholds>
@@ -165,50 +213,6 @@ GEL_SIMD_CLONES void bond_chunk_forces(const BondArrays& bonds, std::size_t begi
     out_tj[k] = o.torque_j;
     out_delta[k] = g.delta;
     out_state[k] = static_cast<BondState>(exact);  // kCommon or kFlagged
-  }
-}
-
-// The smallest gap among the common bonds of [begin, begin + count) (exact ones are pass 2's),
-// and whether any bond there is flagged for pass 2.
-inline ChunkSummary summarise_chunk(const BondForceArrays& forces, std::size_t begin, std::size_t count) {
-  ChunkSummary summary;
-  for (std::size_t k = begin; k < begin + count; ++k) {
-    if (forces.state[k] == BondForceArrays::kCommon)
-      summary.min_delta = std::min(summary.min_delta, forces.delta[k]);
-    else
-      summary.any_flagged = true;
-  }
-  return summary;
-}
-
-// Pass 3 for particles [begin, end): force and torque of each from its bonds, in bond order.
-inline void sum_bond_forces(const BondArrays& bonds, const BondForceArrays& forces, std::size_t begin, std::size_t end,
-                            double* __restrict fx, double* __restrict fy, double* __restrict torque) {
-  const std::int32_t* __restrict start = bonds.incidence_start.data();
-  const std::int32_t* __restrict incidence = bonds.incidence.data();
-  const double* __restrict force_x = forces.force_x.data();
-  const double* __restrict force_y = forces.force_y.data();
-  const double* __restrict torque_i = forces.torque_i.data();
-  const double* __restrict torque_j = forces.torque_j.data();
-  const BondState* __restrict state = forces.state.data();
-  for (std::size_t p = begin; p < end; ++p) {
-    double sum_x = 0.0, sum_y = 0.0, sum_t = 0.0;
-    for (std::int32_t e = start[p]; e < start[p + 1]; ++e) {
-      const std::size_t b = static_cast<std::size_t>(incidence[e]) >> 1;
-      if (state[b] == BondForceArrays::kBroken) [[unlikely]] continue;
-      if (incidence[e] & 1) {
-        sum_x -= force_x[b];
-        sum_y -= force_y[b];
-        sum_t += torque_j[b];
-      } else {
-        sum_x += force_x[b];
-        sum_y += force_y[b];
-        sum_t += torque_i[b];
-      }
-    }
-    fx[p] = sum_x;
-    fy[p] = sum_y;
-    torque[p] = sum_t;
   }
 }
 

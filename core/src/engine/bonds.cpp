@@ -1,5 +1,5 @@
-// Bonds: creation on contact, geometry and energy, the thresholds (breaks and resets), and the
-// bond-force loop (one thread or the pool, bond_kernels.hpp) with its exact path for flagged bonds.
+// Bonds: creation on contact, geometry and energy, the thresholds (breaks and resets). The
+// bond-force loop is bond_loop.cpp.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -82,9 +82,10 @@ double System::stored_energy() const {
   return total;
 }
 
-// Slow path of the bond loop, taken only for a bond past a threshold (the evaluator's
-// threshold_event). Returns true when the bond broke (it is marked and contributes no force),
-// false when it was reset.
+// A bond past a threshold (the evaluator's threshold_event), found by the bond loop's exact path
+// and applied after it in bond order (so the ledger's sum is the same for any number of threads).
+// Returns true when the bond broke (it is marked; it contributed no force), false when it was
+// reset.
 bool System::handle_threshold(std::size_t b, BondEvent event, double nx, double ny) {
   Bond& bond = bonds_[b];
   const BondGeometry g = geometry(bond);
@@ -118,157 +119,6 @@ void System::remove_marked_bonds() {
   }
   bond_marked_.clear();
   bond_scratch_->bonds.valid = false;
-}
-
-// Pass 2 of the bond loop (bond_kernels.hpp): one bond flagged by pass 1 evaluated exactly, with
-// its thresholds, into the per-bond results. Returns true when the bond broke (it is marked and
-// contributes no force).
-template <unsigned kMask>
-bool System::bond_force_exact(std::size_t b, double& min_delta) {
-  using Evaluator = BondEvaluator<kMask & kBondEffectBits>;
-  constexpr bool kCheckThresholds = (kMask & kThresholds) != 0;
-  const BondLaw& law = params_.bond;
-  detail::BondForceArrays& out = bond_scratch_->forces;
-  const Bond& bond = bonds_[b];
-  const std::int32_t i = bond.i, j = bond.j;
-  double dx = x_[j] - x_[i], dy = y_[j] - y_[i];
-  if constexpr ((kMask & kShiftBit) != 0) {
-    dx += bond.shift_x;
-    dy += bond.shift_y;
-  }
-  BondGeometry g = detail::line_of_centres(dx, dy);
-  if constexpr (Evaluator::needs_contact_points()) {
-    to_lab(orient_c_[i], orient_s_[i], bond.bix, bond.biy, g.xi_ix, g.xi_iy);
-    to_lab(orient_c_[j], orient_s_[j], bond.bjx, bond.bjy, g.xi_jx, g.xi_jy);
-  }
-  BondForces f = Evaluator::evaluate(g, law);
-  if constexpr (kCheckThresholds) {
-    const BondEvent event = threshold_event(f, law);
-    if (event != BondEvent::kNone) {
-      if (handle_threshold(b, event, g.nx, g.ny)) {
-        out.state[b] = detail::BondForceArrays::kBroken;
-        return true;
-      }
-      f.sliding_x = f.sliding_y = f.rolling_moment = 0.0;
-    }
-  }
-  const BondLoads o = bond_loads(f, g);
-  out.force_x[b] = o.force_x;
-  out.force_y[b] = o.force_y;
-  out.torque_i[b] = o.torque_i;
-  out.torque_j[b] = o.torque_j;
-  min_delta = std::min(min_delta, g.delta);
-  return false;
-}
-
-// The three passes of bond_kernels.hpp. Every particle's force is the same sequence of additions
-// (its bonds in bond order) for any number of threads, so results are bit-identical.
-template <unsigned kMask>
-void System::bond_forces() {
-  constexpr unsigned kEffects = kMask & kBondEffectBits;
-  constexpr bool kShift = (kMask & kShiftBit) != 0;
-  constexpr bool kCheckThresholds = (kMask & kThresholds) != 0;
-  const BondLaw law = params_.bond;
-  detail::BondScratch& scratch = *bond_scratch_;
-  detail::BondArrays& arrays = scratch.bonds;
-  detail::BondForceArrays& forces = scratch.forces;
-  const std::size_t bond_count = bonds_.size();
-  if (!arrays.valid) arrays.assign(bonds_, size());
-  if (forces.state.size() != bond_count) {
-    for (auto* column : {&forces.force_x, &forces.force_y, &forces.torque_i, &forces.torque_j, &forces.delta})
-      column->resize(bond_count);
-    forces.state.resize(bond_count);
-  }
-
-  auto pass1 = [&](std::size_t begin, std::size_t count, double* out_fx, double* out_fy, double* out_ti, double* out_tj,
-                   double* out_delta, detail::BondState* out_state) {
-    detail::bond_chunk_forces<kEffects, kShift, kCheckThresholds>(arrays, begin, count, x_.data(), y_.data(),
-                                                                  orient_c_.data(), orient_s_.data(), law, out_fx, out_fy,
-                                                                  out_ti, out_tj, out_delta, out_state);
-  };
-  double min_delta = min_delta_;
-  bool any_broken = false;
-  const std::size_t n = size();
-
-  if (!pool_) {
-    // One thread: each chunk's passes back to back while its results are in L1, the sums as a
-    // scatter in bond order, which adds to each particle in the same order as pass 3 would.
-    std::fill(fx_.begin(), fx_.end(), 0.0);
-    std::fill(fy_.begin(), fy_.end(), 0.0);
-    std::fill(torque_.begin(), torque_.end(), 0.0);
-    double* __restrict fx = fx_.data();
-    double* __restrict fy = fy_.data();
-    double* __restrict torque = torque_.data();
-    // A separate minimum for the exact path, whose address is taken, keeps this one in a register.
-    double exact_min_delta = min_delta;
-    detail::BondChunkForces& chunk = scratch.chunk;
-    for (std::size_t begin = 0; begin < bond_count; begin += detail::kBondChunk) {
-      const std::size_t count = std::min(detail::kBondChunk, bond_count - begin);
-      pass1(begin, count, chunk.force_x, chunk.force_y, chunk.torque_i, chunk.torque_j, chunk.delta, chunk.state);
-      for (std::size_t k = 0; k < count; ++k) {
-        if (chunk.state[k] == detail::BondForceArrays::kFlagged) [[unlikely]] {
-          // Pass 2 writes into the all-bond arrays; this bond's results are read from there.
-          const std::size_t b = begin + k;
-          if (bond_force_exact<kMask>(b, exact_min_delta)) {
-            any_broken = true;
-            continue;
-          }
-          chunk.force_x[k] = forces.force_x[b];
-          chunk.force_y[k] = forces.force_y[b];
-          chunk.torque_i[k] = forces.torque_i[b];
-          chunk.torque_j[k] = forces.torque_j[b];
-        } else {
-          min_delta = std::min(min_delta, chunk.delta[k]);
-        }
-        const std::int32_t i = arrays.i[begin + k], j = arrays.j[begin + k];
-        fx[i] += chunk.force_x[k];
-        fy[i] += chunk.force_y[k];
-        fx[j] -= chunk.force_x[k];
-        fy[j] -= chunk.force_y[k];
-        torque[i] += chunk.torque_i[k];
-        torque[j] += chunk.torque_j[k];
-      }
-    }
-    min_delta_ = std::min(min_delta, exact_min_delta);
-    if (any_broken) remove_marked_bonds();
-    return;
-  }
-
-  // Several threads: bigger tasks than the one-thread chunks (fewer hand-outs, no L1 reuse to keep).
-  constexpr std::size_t kTaskBonds = 8 * detail::kBondChunk;
-  const std::size_t tasks = (bond_count + kTaskBonds - 1) / kTaskBonds;
-  scratch.chunk_summaries.resize(tasks);
-  parallel(tasks, [&](std::size_t chunk) {
-    const std::size_t begin = chunk * kTaskBonds, count = std::min(kTaskBonds, bond_count - begin);
-    pass1(begin, count, forces.force_x.data() + begin, forces.force_y.data() + begin, forces.torque_i.data() + begin,
-          forces.torque_j.data() + begin, forces.delta.data() + begin, forces.state.data() + begin);
-    scratch.chunk_summaries[chunk] = detail::summarise_chunk(forces, begin, count);
-  });
-  for (const detail::ChunkSummary& summary : scratch.chunk_summaries) min_delta = std::min(min_delta, summary.min_delta);
-  // Pass 2 is serial (it may break bonds and reset springs) and visits the flagged bonds in bond
-  // order; a task that flagged none is skipped whole, so the serial part no longer reads every
-  // bond's state each step (8 bytes a bond; at 23 040 particles two threads gained 3-5 %).
-  for (std::size_t chunk = 0; chunk < tasks; ++chunk) {
-    if (!scratch.chunk_summaries[chunk].any_flagged) continue;
-    const std::size_t begin = chunk * kTaskBonds, end = std::min(bond_count, begin + kTaskBonds);
-    for (std::size_t b = begin; b < end; ++b)
-      if (forces.state[b] == detail::BondForceArrays::kFlagged) any_broken |= bond_force_exact<kMask>(b, min_delta);
-  }
-  parallel((n + detail::kParticleBlock - 1) / detail::kParticleBlock, [&](std::size_t block) {
-    const std::size_t begin = block * detail::kParticleBlock;
-    detail::sum_bond_forces(arrays, forces, begin, std::min(n, begin + detail::kParticleBlock), fx_.data(), fy_.data(),
-                            torque_.data());
-  });
-  min_delta_ = min_delta;
-  if (any_broken) remove_marked_bonds();
-}
-
-void System::dispatch_bond_forces() {
-  static constexpr auto table = []<std::size_t... kMasks>(std::index_sequence<kMasks...>) {
-    return std::array<void (System::*)(), kBondVariants>{&System::bond_forces<kMasks>...};
-  }(std::make_index_sequence<kBondVariants>{});
-  const unsigned mask = (params_.effects & kBondEffectBits) | ((periodic_x_ || periodic_y_) ? kShiftBit : 0u);
-  (this->*table[mask])();
 }
 
 }  // namespace gel
