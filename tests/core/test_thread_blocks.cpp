@@ -1,8 +1,9 @@
 // On several threads the bond loop cuts the particles into blocks (bond_kernels.hpp): a bond
 // with its ends in two blocks is computed by both owners, each adding it to its own end, and the
-// breaks and resets found there are applied once, in bond order. Here nearly every bond crosses
-// blocks, and bonds break, reset and form while the run goes on, with T = 1, 2 and 3 and a
-// change midway: the bits must not change.
+// breaks and resets found there are applied once, in bond order; contact detection looks for
+// touching pairs in ranges of candidates. Here nearly every bond crosses blocks, and bonds
+// break, reset and form while the run goes on, with T = 1, 2 and 3 and a change midway: the bits
+// must not change.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -83,7 +84,8 @@ void expect_same_bits(const System& threaded, const System& serial) {
 }
 
 TEST(ThreadBlocks, BondsAcrossBlocksGiveTheSameBitsOnAnyNumberOfThreads) {
-  // Three blocks and a bit, numbered at random.
+  // Three blocks and a bit, numbered at random; about 1700 candidate pairs, two ranges of
+  // contact detection.
   const Configuration config = renumbered(random_network(3 * static_cast<int>(detail::kParticleBlock) + 500, 5), 11);
   std::size_t across = 0;
   for (const BondRecord& bond : config.bonds)

@@ -154,6 +154,7 @@ struct BondChunkForces {
 struct BondScratch {
   BondBlocks bonds;
   std::vector<BondEventRecord> events;  // all blocks' events of one pass
+  std::vector<std::size_t> first_touching;  // System::detect_contacts: per task, its first touching candidate
 };
 
 // n and the gap of a bond from the separation r_j - r_i (image shift included); the contact

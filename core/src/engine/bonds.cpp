@@ -18,6 +18,10 @@
 namespace gel {
 using namespace engine;
 
+namespace {
+constexpr std::size_t kCandidateBlock = 1024;  // candidates per task of detect_contacts (several threads)
+}  // namespace
+
 // ---------------------------------------------------------------------------------------
 // Bonds
 
@@ -39,12 +43,33 @@ void System::create_bond(std::int32_t i, std::int32_t j, double shift_x, double 
 
 void System::detect_contacts() {
   const double contact_sq = kDiameter * kDiameter;
-  touching_.clear();
-  for (std::size_t c = 0; c < candidates_.size();) {
-    const Candidate& pair = candidates_[c];
+  auto touches = [&](const Candidate& pair) {
     const double dx = x_[pair.j] + pair.shift_x - x_[pair.i];
     const double dy = y_[pair.j] + pair.shift_y - y_[pair.i];
-    if (dx * dx + dy * dy <= contact_sq) [[unlikely]] {
+    return dx * dx + dy * dy <= contact_sq;
+  };
+  // A pair touches in few steps: the threads look for the first one, and the list is changed on
+  // one thread, from there on, only when there is one (as a serial scan would, for any T).
+  const std::size_t count = candidates_.size();
+  const std::size_t block = pool_ ? kCandidateBlock : std::max<std::size_t>(count, 1);
+  std::vector<std::size_t>& first = bond_scratch_->first_touching;
+  first.assign((count + block - 1) / block, count);
+  parallel(first.size(), [&](std::size_t t) {
+    const std::size_t end = std::min(count, (t + 1) * block);
+    for (std::size_t c = t * block; c < end; ++c)
+      if (touches(candidates_[c])) [[unlikely]] {
+        first[t] = c;
+        return;
+      }
+  });
+  std::size_t from = count;
+  for (const std::size_t c : first) from = std::min(from, c);
+  if (from == count) [[likely]]
+    return;
+  touching_.clear();
+  for (std::size_t c = from; c < candidates_.size();) {
+    const Candidate& pair = candidates_[c];
+    if (touches(pair)) {
       touching_.push_back(pair);
       candidates_[c] = candidates_.back();
       candidates_.pop_back();
@@ -52,8 +77,6 @@ void System::detect_contacts() {
       ++c;
     }
   }
-  if (touching_.empty()) [[likely]]
-    return;
   // The candidate list follows the cell grid, whose cells are 2a + skin wide: bonds formed in one
   // step are appended in (i, j) order instead, so that the bond order (the order in which each
   // particle's forces are summed) does not depend on the skin.
