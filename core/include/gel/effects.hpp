@@ -1,6 +1,6 @@
 #pragma once
 // The effects a scene can switch on. The step loop is instantiated per effect set at compile
-// time (see core/src/engine/bonds.cpp), so an effect that is off costs nothing per bond or per particle.
+// time (see core/src/engine/bond_loop.cpp), so an effect that is off costs nothing per bond or per particle.
 #include <string>
 #include <vector>
 
