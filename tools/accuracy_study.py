@@ -45,6 +45,7 @@ DESCRIPTIONS = {
     "quasistatic-loaded-walls1x": "the preset `quasistatic` until the evening of 2026-12-07: the walls at their speed all the way",
     "quasistatic-walk-dt1": "the preset `quasistatic` until the morning of 2026-12-07: every walk at the scene's dt",
     "quasistatic-walkdt6-below3e-2": "`quasistatic` with the walk at up to 6x dt below 3e-2 F0/a² (a candidate, not a preset)",
+    "quasistatic-walkdt4-below3e-2": "`quasistatic` with the walk step (4x dt) up to 3e-2 F0/a² instead of 1e-2 (a candidate, not a preset)",
     "quasistatic-loaded-walls2x": "`quasistatic` with the walls at 2x their speed from 1e-2 F0/a² on (a candidate, not a preset)",
     "quasistatic-loaded-walls4x": "`quasistatic` with the walls at 4x their speed from 1e-2 F0/a² on (a candidate, not a preset)",
     "quasistatic-walls0.5x": "`quasistatic`, walls at half the reference speed",

@@ -102,6 +102,10 @@ VARIANTS = {
     # preset's walls move at 2x once they carry 3e-2 F0/a^2 (bond 1 from phi ~ 0.42, regime III):
     # from 1e-2 on, 2x lowered P_y by 5-16 % at phi 0.31-0.42 at the paper's size.
     "quasistatic-loaded-walls1x": {"fidelity": "quasistatic", "loaded_wall_factor": 1},
+    # A candidate after the loaded walls: the walk step (4x dt, as the preset) up to 3e-2 F0/a^2,
+    # where the loaded walls take over, instead of 1e-2: between the two (bond 1, paper size:
+    # phi 0.33-0.42) a quarter of the preset's steps are walked at dt and 1x.
+    "quasistatic-walkdt4-below3e-2": {"fidelity": "quasistatic", "walk_dt_stress": 3e-2},
 }
 # Variant keys copied as they are into the scene's compression message.
 COMPRESSION_FIELDS = ("adaptive_wall_max_factor", "approach_shortcut", "adaptive_wall_drag_fraction", "m_exam",
