@@ -12,6 +12,7 @@
 #include "gel/errors.hpp"
 #include "gel/system.hpp"
 #include "gel/units.hpp"
+#include "same_bits.hpp"
 #include "test_scenes.hpp"
 
 namespace gel {
@@ -357,23 +358,7 @@ TEST(Engine, AnyNumberOfThreadsGivesTheSameBits) {
   ASSERT_GT(serial.events().normal + serial.events().sliding + serial.events().rolling, 0);
   ASSERT_GT(serial.events().created, 0);
   for (const auto& segments : std::vector<std::vector<int>>{{2, 2, 2}, {3, 1, 2}}) {
-    const System threaded = run(segments);
-    EXPECT_EQ(threaded.x(), serial.x());
-    EXPECT_EQ(threaded.y(), serial.y());
-    EXPECT_EQ(threaded.vx(), serial.vx());
-    EXPECT_EQ(threaded.omega(), serial.omega());
-    EXPECT_EQ(threaded.fx(), serial.fx());
-    EXPECT_EQ(threaded.torque(), serial.torque());
-    ASSERT_EQ(threaded.bonds().size(), serial.bonds().size());
-    for (std::size_t b = 0; b < serial.bonds().size(); ++b) {
-      EXPECT_EQ(threaded.bonds()[b].i, serial.bonds()[b].i);
-      EXPECT_EQ(threaded.bonds()[b].bix, serial.bonds()[b].bix);
-    }
-    EXPECT_EQ(threaded.events().sliding, serial.events().sliding);
-    EXPECT_EQ(threaded.events().created, serial.events().created);
-    EXPECT_EQ(threaded.energy().dissipated, serial.energy().dissipated);
-    EXPECT_EQ(threaded.energy().drag, serial.energy().drag);
-    EXPECT_EQ(threaded.energy().wall_work, serial.energy().wall_work);
+    expect_same_bits(run(segments), serial);
   }
   System system(random_network(10, 1), params);
   EXPECT_THROW(system.set_threads(0), InvalidArgument);
