@@ -279,8 +279,9 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
     c->set_v_wall(c->v_wall_v0() * v0);
   }
   // A wall must not cross the neighbour-list skin in a few steps or outrun the speed guard.
+  const double longest_wall_step = 0.05 * params.skin;
   auto require_wall_step_within_skin = [&](const char* field, double speed) {
-    if (speed * params.dt > 0.05 * params.skin)
+    if (speed * params.dt > longest_wall_step)
       throw InvalidArgument(field, "moves a wall more than 5% of the skin per step; lower it");
   };
   require_wall_step_within_skin("compression.v_wall", c->v_wall());
@@ -318,7 +319,7 @@ gel::v1::Scene resolve_compression_scene(const gel::v1::Scene& scene) {
   const double longest = std::max(1.0, kMaxWalkStepOverPeriod * shortest_period(params.bond) / params.dt);
   // A derived factor (walk step, loaded walls) also stops where the wall would cross the skin's
   // share: a user's fast walls need not switch off what the preset adds to learn their speed.
-  const double within_skin = std::max(1.0, 0.999 * 0.05 * params.skin / (c->v_wall() * params.dt));  // a hair inside
+  const double within_skin = std::max(1.0, 0.999 * longest_wall_step / (c->v_wall() * params.dt));  // a hair inside
   if (derive_fidelity_fields && c->walk_dt_factor() == 0.0)
     c->set_walk_dt_factor(std::min({fidelity.walk_dt_factor, longest, within_skin}));
   require_finite("compression.walk_dt_factor", c->walk_dt_factor());
