@@ -9,6 +9,7 @@ docs/quasistatic.md (with docs/quasistatic/results.json and plots).
     python3 tools/quasistatic_study.py                       # every ensemble below, 2 at a time
     python3 tools/quasistatic_study.py --only small-bond1    # one gel family
     python3 tools/quasistatic_study.py --variant quasistatic-walls4x --only small-bond1
+    python3 tools/quasistatic_study.py --only paper4x-bond1 --variant quasistatic   # the 4x box: about an hour a run
     python3 tools/quasistatic_study.py --report-only         # tables from the cached runs
 
 Runs are cached in --work (default ~/.cache/gel-studies/quasistatic): a finished run is never
@@ -41,7 +42,12 @@ GELS = {
                     "generator": {"lx": 150, "ly": 250, "n_floc": 64, "n_clusters": 22}},
     "paper-bond1": {"preset": "paper-bond1"},
     "paper-bond2": {"preset": "paper-bond2"},
+    # The 4x box (600 x 1000 a, 23 040 particles, the paper's density of flocs): does lambda_II keep
+    # growing with the box (docs/exponents.md)? About 10x a paper-size run; only with --only.
+    "paper4x-bond1": {"preset": "paper-bond1-4x"},
 }
+# Families run only when --only names them.
+OPT_IN_GELS = ("paper4x-bond1",)
 # Variants: the method under test, the reference ("paper", MODEL.md's protocol) and candidates
 # for a faster method. wall_factor multiplies the bond set's reference wall speed (MODEL.md:
 # 5e-4 v0 for bond 1, 1e-4 v0 for bond 2).
@@ -114,7 +120,7 @@ COMPRESSION_FIELDS = ("adaptive_wall_max_factor", "approach_shortcut", "adaptive
 REFERENCE = "paper"
 DEFAULT_VARIANTS = ("quasistatic", "paper")
 REFERENCE_WALL_SPEED = {"bond1": 5e-4, "bond2": 1e-4}
-DEFAULT_SEEDS = {"small-bond1": 8, "small-bond2": 8, "paper-bond1": 4, "paper-bond2": 4}
+DEFAULT_SEEDS = {"small-bond1": 8, "small-bond2": 8, "paper-bond1": 4, "paper-bond2": 4, "paper4x-bond1": 4}
 
 BOOTSTRAP_SAMPLES = 4000
 # A percentile bootstrap over fewer seeds than this understates the interval badly (two seeds
@@ -429,13 +435,13 @@ def main():
     parser.add_argument("--only", action="append", choices=sorted(GELS), help="gel families to run (repeatable)")
     parser.add_argument("--variant", action="append", choices=sorted(VARIANTS),
                         help="variants to run (repeatable; default: quasistatic and paper)")
-    parser.add_argument("--seeds", type=int, help="seeds 1..N per ensemble (default: 8 small, 4 paper size)")
+    parser.add_argument("--seeds", type=int, help="seeds 1..N per ensemble (default: 8 small, 4 paper size and 4x box)")
     parser.add_argument("--from-seed", type=int, default=1,
                         help="first seed to run (so that a second study process can take the later seeds)")
     parser.add_argument("--jobs", type=int, default=2, help="runs at a time")
     parser.add_argument("--report-only", action="store_true", help="no runs: tables from the cached runs")
     args = parser.parse_args()
-    gels = args.only or list(GELS)
+    gels = args.only or [gel for gel in GELS if gel not in OPT_IN_GELS]
     fidelities = args.variant or list(DEFAULT_VARIANTS)
 
     if not args.report_only:
