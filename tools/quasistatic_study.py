@@ -9,7 +9,7 @@ docs/quasistatic.md (with docs/quasistatic/results.json and plots).
     python3 tools/quasistatic_study.py                       # every ensemble below, 2 at a time
     python3 tools/quasistatic_study.py --only small-bond1    # one gel family
     python3 tools/quasistatic_study.py --variant quasistatic-walls4x --only small-bond1
-    python3 tools/quasistatic_study.py --only paper4x-bond1 --variant quasistatic   # the 4x box: about an hour a run
+    python3 tools/quasistatic_study.py --only paper4x-bond1 --variant quasistatic   # the 4x box: ~80 min a run
     python3 tools/quasistatic_study.py --report-only         # tables from the cached runs
 
 Runs are cached in --work (default ~/.cache/gel-studies/quasistatic): a finished run is never
@@ -42,8 +42,9 @@ GELS = {
                     "generator": {"lx": 150, "ly": 250, "n_floc": 64, "n_clusters": 22}},
     "paper-bond1": {"preset": "paper-bond1"},
     "paper-bond2": {"preset": "paper-bond2"},
-    # The 4x box (600 x 1000 a, 23 040 particles, the paper's density of flocs): does lambda_II keep
-    # growing with the box (docs/exponents.md)? About 10x a paper-size run; only with --only.
+    # The 4x box (600 x 1000 a, 23 040 particles, the paper's phi_0 and floc size): does lambda_II
+    # keep growing with the box (docs/exponents.md)? Seed 1 took 4 700 s of CPU, 14x a paper-size
+    # run; only with --only.
     "paper4x-bond1": {"preset": "paper-bond1-4x"},
 }
 # Families run only when --only names them.

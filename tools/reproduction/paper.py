@@ -35,7 +35,7 @@ PAPER_CONTEXT = (
     "reproduces the published 5.8 in the 1408-particle box and gives 7.4–8.2 in the paper's. The 4× box, which would "
     "say whether the exponent keeps growing with the box, is not finished (hours of CPU per run). The paper's own code "
     "at the paper's size reached φ 0.259 on one gel (seed 1, docs/reference_code.md). There it agrees with the "
-    "product's `paper` at every row (all capped at the wait limit), but at φ 0.214, the lowest row of the paper's "
+    "product's `paper` at every row (its own rows all stopped at the wait cap), but at φ 0.214, the lowest row of the paper's "
     "λ_II range, its P is 1.7× the relaxed value, while at 0.235 and 0.259 all three agree. A raised lowest row flattens "
     "the fit, so the published protocol's λ_II at the paper's size would come out below the relaxed 7.3–8.2. That is "
     "one seed and three of the range's five rows, not yet a measurement of its λ_II.")
