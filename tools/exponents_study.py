@@ -139,7 +139,8 @@ def main():
            "φ ≥ 0.46), with the 95 % percentile-bootstrap interval over seeds (none below "
            f"{qs.MIN_SEEDS_FOR_INTERVAL} seeds). The published values (Seto et al. 2013) are printed beside "
            "them, never fitted towards. Families: `small` is 1408 particles in 150 × 250 a, `paper` the "
-           "paper's 5760 in 300 × 500 a. Variants: docs/accuracy.md \"The settings\".\n"]
+           "paper's 5760 in 300 × 500 a, `paper4x` 23 040 in 600 × 1000 a (the paper's φ_0 and floc size). "
+           "Variants: docs/accuracy.md \"The settings\".\n"]
     notes = os.path.join(qs.ROOT, "docs", "exponents_notes.md")
     if os.path.exists(notes):
         out.append("*The reading below is written by hand (docs/exponents_notes.md); the tables after it are "
