@@ -9,7 +9,7 @@ docs/quasistatic.md (with docs/quasistatic/results.json and plots).
     python3 tools/quasistatic_study.py                       # every ensemble below, 2 at a time
     python3 tools/quasistatic_study.py --only small-bond1    # one gel family
     python3 tools/quasistatic_study.py --variant quasistatic-walls4x --only small-bond1
-    python3 tools/quasistatic_study.py --only paper4x-bond1 --variant quasistatic   # the 4x box: ~80 min a run
+    python3 tools/quasistatic_study.py --only paper4x-bond1 --variant quasistatic   # the 4x box: 65-80 min a run
     python3 tools/quasistatic_study.py --report-only         # tables from the cached runs
 
 Runs are cached in --work (default ~/.cache/gel-studies/quasistatic): a finished run is never
@@ -43,8 +43,8 @@ GELS = {
     "paper-bond1": {"preset": "paper-bond1"},
     "paper-bond2": {"preset": "paper-bond2"},
     # The 4x box (600 x 1000 a, 23 040 particles, the paper's phi_0 and floc size): does lambda_II
-    # keep growing with the box (docs/exponents.md)? Seed 1 took 4 700 s of CPU, 14x a paper-size
-    # run; only with --only.
+    # keep growing with the box (docs/exponents.md)? Seeds 1-3 took 3 900-4 700 s of CPU each,
+    # 12-14x a paper-size run; only with --only.
     "paper4x-bond1": {"preset": "paper-bond1-4x"},
 }
 # Families run only when --only names them.
